@@ -10,9 +10,12 @@ namespace btfgmm {
 
 std::string to_string(SampleFormat f) {
   switch (f) {
-    case SampleFormat::kLdr8: return "8-bit";
-    case SampleFormat::kLdr16: return "16-bit";
-    case SampleFormat::kHdr: return "HDR float";
+    case SampleFormat::kLdr8:
+      return "8-bit";
+    case SampleFormat::kLdr16:
+      return "16-bit";
+    case SampleFormat::kHdr:
+      return "HDR float";
   }
   return "?";
 }
@@ -30,9 +33,9 @@ Btf::Btf(DirectionSet lights, DirectionSet views, int width, int height, SampleF
                             "lights, {} views)",
                             lights_.size(), views_.size()));
   if (width < 1 || height < 1)
-    throw Error(Error::Kind::kArgument,
-                fmt::format("BTF image size {}x{} is empty; give a size of at least 1x1", width,
-                            height));
+    throw Error(
+        Error::Kind::kArgument,
+        fmt::format("BTF image size {}x{} is empty; give a size of at least 1x1", width, height));
   const double floats = double(image_count()) * double(width) * double(height) * 3.0;
   if (floats > double(std::numeric_limits<std::ptrdiff_t>::max() / 8))
     throw Error(Error::Kind::kArgument,

@@ -45,7 +45,9 @@ OnionSlice to_onion_slice(const Vec3& v) {
   return {std::atan2(y, z), std::asin(std::clamp(x, -1.0, 1.0))};
 }
 
-OnionSlice to_onion_slice(const Direction& d) { return to_onion_slice(to_vector(d)); }
+OnionSlice to_onion_slice(const Direction& d) {
+  return to_onion_slice(to_vector(d));
+}
 
 Vec3 from_onion_slice(const OnionSlice& o) {
   const double cb = std::cos(o.beta);
@@ -137,9 +139,9 @@ DirectionSet DirectionSet::parse(const std::string& spec) {
       const std::string item = rest.substr(start, comma - start);
       const std::size_t slash = item.find('/');
       if (slash == std::string::npos)
-        throw Error(Error::Kind::kArgument,
-                    fmt::format("direction set '{}': ring '{}' is not THETA/COUNT; {}", spec,
-                                item, help));
+        throw Error(
+            Error::Kind::kArgument,
+            fmt::format("direction set '{}': ring '{}' is not THETA/COUNT; {}", spec, item, help));
       const double theta = parse_number(item.substr(0, slash), spec);
       const double count = parse_number(item.substr(slash + 1), spec);
       if (count != std::floor(count) || count < 1 || count > 100000)

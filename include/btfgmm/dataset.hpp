@@ -48,8 +48,8 @@ struct BtfInfo {
   int width = 0, height = 0;
   SampleFormat format = SampleFormat::kLdr8;
   ImageFormat image_format = ImageFormat::kPng;
-  std::uint64_t file_bytes = 0;    // bytes of the image files (compressed, on disk or in zip)
-  std::uint64_t ignored_files = 0; // files that are not images (e.g. a README), skipped
+  std::uint64_t file_bytes = 0;     // bytes of the image files (compressed, on disk or in zip)
+  std::uint64_t ignored_files = 0;  // files that are not images (e.g. a README), skipped
 };
 
 class BtfSource {
