@@ -1,0 +1,80 @@
+// The 9-D Gaussian mixture of product components (the paper's Eq. 1-2) and its EM fit
+// (Eq. 3-7).
+//
+// Variables are expressed in units of their quantisation step (docs/ALGORITHM.md): x, y in
+// pixels, the four onion-slice angles in units of the angular sampling step of their
+// direction set, the three colour residuals in 8-bit levels (HDR: in 1/255 of the data's
+// range). One variance floor, 1/12 unit², then serves all nine variables.
+#pragma once
+
+#include <array>
+#include <cstddef>
+#include <cstdint>
+#include <functional>
+#include <span>
+#include <vector>
+
+namespace btfgmm {
+
+constexpr int kVariables = 9;  // x, y, alpha_i, beta_i, alpha_v, beta_v, r, g, b
+constexpr int kInputs = 6;     // the inputs I = {1..6} of Eq. (8)-(10)
+// The variance floor, in units of each variable's quantisation step squared: the variance
+// of a uniform distribution over one step (DESIGN §2.4).
+constexpr double kVarianceFloor = 1.0 / 12.0;
+
+// P(x) = sum_m w_m prod_n N(x_n | mu_mn, sigma_mn^2)   (Eq. 1-2)
+struct ProductMixture {
+  std::vector<double> weight;                        // w_m, sum 1
+  std::vector<std::array<double, kVariables>> mean;  // mu_mn
+  std::vector<std::array<double, kVariables>> var;   // sigma_mn^2
+
+  std::size_t size() const { return weight.size(); }
+  void resize(std::size_t m) {
+    weight.resize(m);
+    mean.resize(m);
+    var.resize(m);
+  }
+};
+
+struct EmConfig {
+  int max_iterations = 40;  // stop after this many iterations
+  double epsilon = 0.0;     // ... or when the relative gain of L falls below this
+  double variance_floor = kVarianceFloor;
+  // A component whose summed responsibility falls below this many samples has vanished
+  // ("suppressed by EM"): it is dropped from the mixture.
+  double min_component_samples = 1.0;
+  int threads = 0;  // 0: all cores
+};
+
+// One EM iteration as it finished: L of Eq. (3) for the parameters the iteration started
+// from, its relative gain over the previous iteration, components alive after the M-step.
+struct EmProgress {
+  int iteration = 0;  // 1-based
+  int max_iterations = 0;
+  double log_likelihood = 0.0;
+  double relative_gain = 0.0;  // (L - L_prev) / |L_prev|; 0 for the first iteration
+  std::size_t components = 0;
+  std::size_t dropped = 0;  // dropped so far
+  double seconds = 0.0;     // since the fit started
+};
+using EmCallback = std::function<void(const EmProgress&)>;
+
+struct EmResult {
+  std::vector<double> log_likelihood;  // L per iteration (before its M-step)
+  double final_log_likelihood = 0.0;   // L of the returned parameters
+  int iterations = 0;
+  std::size_t dropped = 0;
+  bool converged = false;  // stopped by epsilon
+};
+
+// The readable statement of Eq. (3)-(7) on an explicit sample matrix (N x 9, row-major, in
+// units): log-domain responsibilities, double accumulators, variances from sums shifted by
+// the previous mean, the variance floor, vanished components dropped. Single-threaded. The
+// reference the fast grid path is checked against.
+EmResult fit_em_reference(std::span<const double> samples, ProductMixture& mixture,
+                          const EmConfig& config, const EmCallback& progress = {});
+
+// Mean log-likelihood, Eq. (3), of samples (N x 9) under a mixture.
+double mean_log_likelihood(std::span<const double> samples, const ProductMixture& mixture);
+
+}  // namespace btfgmm

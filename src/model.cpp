@@ -1,0 +1,49 @@
+// fit_model (mean BRDF, samples, initialisation, EM) and the compression ratios.
+#include <chrono>
+
+#include "btfgmm/error.hpp"
+#include "btfgmm/model.hpp"
+
+namespace btfgmm {
+
+double BtfModel::compression_ratio_paper() const {
+  // DESIGN §2.6: W*H*ni*nv*3 bytes of 8-bit data against M*9*2 4-byte floats plus the mean
+  // BRDF counted as ni*nv*3 bytes.
+  const double pairs = double(lights.size()) * double(views.size());
+  const double data = double(width) * height * pairs * 3.0;
+  const double model = double(mixture.size()) * kVariables * 2 * 4 + pairs * 3.0;
+  return data / model;
+}
+
+double BtfModel::compression_ratio_file(std::uint64_t file_bytes) const {
+  const double pairs = double(lights.size()) * double(views.size());
+  return double(width) * height * pairs * 3.0 / double(file_bytes);
+}
+
+BtfModel fit_model(const Btf& btf, const FitConfig& config, const EmCallback& progress) {
+  const auto t0 = std::chrono::steady_clock::now();
+  const SampleSet samples = make_sample_set(btf);
+  ProductMixture mix = initial_mixture(samples, config.components, config.seed);
+  const EmResult em = fit_em(samples, mix, config.em, progress);
+  BtfModel m;
+  m.lights = btf.lights();
+  m.views = btf.views();
+  m.width = btf.width();
+  m.height = btf.height();
+  m.origin = btf.origin();
+  m.format = btf.format();
+  m.scaling = samples.scaling;
+  m.mean_brdf = samples.mean_brdf;
+  m.mixture = std::move(mix);
+  m.settings.components = std::uint32_t(config.components);
+  m.settings.max_iterations = std::uint32_t(config.em.max_iterations);
+  m.settings.epsilon = config.em.epsilon;
+  m.settings.seed = config.seed;
+  m.settings.iterations = std::uint32_t(em.iterations);
+  m.settings.dropped = std::uint32_t(em.dropped);
+  m.settings.log_likelihood = em.final_log_likelihood;
+  m.settings.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return m;
+}
+
+}  // namespace btfgmm
