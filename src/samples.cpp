@@ -137,9 +137,15 @@ ProductMixture initial_mixture(const SampleSet& s, std::size_t components, std::
       s2[v] += (x[v] - ref[v]) * (x[v] - ref[v]);
     }
   }
+  // Each component starts as wide as one of M equal cells of the six inputs would be: the
+  // variance over the sample set divided by M^(1/3) (sigma by M^(1/6)). Starting every
+  // component as wide as the whole set (the textbook choice) gave a worse predictor for the
+  // same likelihood on generated tiles (RMSE 19.1 against 17.5 levels, 16 x 16 corduroy,
+  // M = 100, 8 iterations).
+  const double shrink = std::cbrt(double(components));
   std::array<double, kVariables> var{};
   for (int v = 0; v < kVariables; ++v)
-    var[v] = std::max(s2[v] / count - (s1[v] / count) * (s1[v] / count), kVarianceFloor);
+    var[v] = std::max((s2[v] / count - (s1[v] / count) * (s1[v] / count)) / shrink, kVarianceFloor);
 
   ProductMixture mix;
   mix.resize(components);

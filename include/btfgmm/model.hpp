@@ -57,7 +57,7 @@ struct SampleSet {
 SampleSet make_sample_set(const Btf& btf);
 
 // Random initialisation (seeded): means at M distinct random samples, variances the
-// variance of each variable over the sample set, equal weights.
+// variance of each variable over the sample set divided by M^(1/3), equal weights.
 ProductMixture initial_mixture(const SampleSet& samples, std::size_t components,
                                std::uint64_t seed);
 
