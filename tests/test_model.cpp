@@ -350,6 +350,34 @@ TEST(ModelFile, NewerVersionPngAndEmptyGiveTheirMessages) {
   EXPECT_THROW(deserialize_model({}, "empty.btfgmm"), Error);
 }
 
+// A model file of format version 1 committed in tests/data: it must keep loading and decoding
+// to the same numbers, and re-serialise to the same bytes.
+TEST(ModelFile, GoldenVersion1FileKeepsDecoding) {
+  const std::filesystem::path path = std::filesystem::path(BTFGMM_TEST_DATA) / "golden_v1.btfgmm";
+  const BtfModel m = load_model(path);
+  EXPECT_EQ(m.mixture.size(), 2u);
+  EXPECT_EQ(m.origin.x, 2);
+  EXPECT_EQ(m.origin.y, 3);
+  EXPECT_EQ(m.settings.seed, 42u);
+  EXPECT_EQ(m.settings.log_likelihood, -12.5);
+  std::ifstream in(path, std::ios::binary);
+  const std::vector<std::uint8_t> bytes((std::istreambuf_iterator<char>(in)),
+                                        std::istreambuf_iterator<char>());
+  EXPECT_EQ(serialize_model(m), bytes);
+  const Query queries[] = {{1.5, 2.25, {40, 90}, {0, 0}},
+                           {5.5, -1.0, {40, 45}, {40, 180}},
+                           {0, 0, {0, 0}, {0, 0}},
+                           {3.9, 3.9, {80, 300}, {20, 10}}};
+  const float expected[4][3] = {{25.6619873f, 23.8380127f, 26.9624424f},
+                                {20.8143978f, 14.6856012f, 20.2015991f},
+                                {9.66214371f, 13.8378563f, 13.6291275f},
+                                {16.4682293f, 27.3173828f, 20.7432938f}};
+  for (int i = 0; i < 4; ++i) {
+    const auto rgb = predict(m, queries[i]);
+    for (int c = 0; c < 3; ++c) EXPECT_NEAR(rgb[c], expected[i][c], 1e-4) << "query " << i;
+  }
+}
+
 TEST(ModelFile, SaveIsAtomicAndLoadNamesTheFile) {
   const auto dir = std::filesystem::temp_directory_path() / "btfgmm_model_save";
   std::filesystem::remove_all(dir);
