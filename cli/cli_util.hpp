@@ -1,0 +1,129 @@
+// Small helpers shared by the btfgmm subcommands: parsing of angle pairs and tiles, byte
+// counts for people, output-folder checks.
+#pragma once
+
+#include <fmt/format.h>
+
+#include <charconv>
+#include <cmath>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "btfgmm/btfgmm.hpp"
+
+namespace btfgmm::cli {
+
+inline std::vector<double> parse_numbers(const std::string& text, const std::string& option,
+                                         std::size_t count, const std::string& example) {
+  std::vector<double> out;
+  std::size_t start = 0;
+  while (start <= text.size()) {
+    const std::size_t comma = std::min(text.find(',', start), text.size());
+    const std::string item = text.substr(start, comma - start);
+    double v = 0;
+    const auto r = std::from_chars(item.data(), item.data() + item.size(), v);
+    if (item.empty() || r.ec != std::errc() || r.ptr != item.data() + item.size() ||
+        !std::isfinite(v))
+      throw Error(Error::Kind::kArgument,
+                  fmt::format("{} '{}': '{}' is not a finite number; write it like {}", option,
+                              text, item, example));
+    out.push_back(v);
+    start = comma + 1;
+  }
+  if (out.size() != count)
+    throw Error(Error::Kind::kArgument,
+                fmt::format("{} '{}' needs {} numbers separated by commas, like {}", option, text,
+                            count, example));
+  return out;
+}
+
+// "THETA,PHI" in degrees, theta in [0, 90].
+inline Direction parse_direction(const std::string& text, const std::string& option) {
+  const auto v = parse_numbers(text, option, 2, "30,45 (theta,phi in degrees)");
+  if (v[0] < 0.0 || v[0] > 90.0)
+    throw Error(Error::Kind::kArgument,
+                fmt::format("{} '{}': theta {} is off the upper hemisphere; give theta in [0, 90] "
+                            "degrees",
+                            option, text, v[0]));
+  double phi = std::fmod(v[1], 360.0);
+  if (phi < 0) phi += 360.0;
+  return {v[0], phi};
+}
+
+// "X,Y,W,H".
+inline Tile parse_tile(const std::string& text) {
+  const auto v = parse_numbers(text, "--tile", 4, "0,0,25,25 (x,y,width,height in pixels)");
+  for (double d : v)
+    if (d != std::floor(d) || std::abs(d) > 1e9)
+      throw Error(Error::Kind::kArgument,
+                  fmt::format("--tile '{}' needs whole pixel numbers, like 0,0,25,25", text));
+  if (v[2] < 1 || v[3] < 1 || v[0] < 0 || v[1] < 0)
+    throw Error(Error::Kind::kArgument,
+                fmt::format("--tile '{}': x, y must be >= 0 and width, height >= 1", text));
+  return {int(v[0]), int(v[1]), int(v[2]), int(v[3])};
+}
+
+// "N" or "WxH".
+inline std::pair<int, int> parse_size(const std::string& text) {
+  const std::size_t x = text.find('x');
+  const std::string a = text.substr(0, x), b = x == std::string::npos ? a : text.substr(x + 1);
+  int w = 0, h = 0;
+  const auto ra = std::from_chars(a.data(), a.data() + a.size(), w);
+  const auto rb = std::from_chars(b.data(), b.data() + b.size(), h);
+  if (a.empty() || b.empty() || ra.ec != std::errc() || rb.ec != std::errc() ||
+      ra.ptr != a.data() + a.size() || rb.ptr != b.data() + b.size() || w < 1 || h < 1 ||
+      w > 65536 || h > 65536)
+    throw Error(Error::Kind::kArgument,
+                fmt::format("--size '{}' is not a size; give N or WxH pixels (1..65536), e.g. "
+                            "256 or 320x240",
+                            text));
+  return {w, h};
+}
+
+inline std::string human_bytes(double b) {
+  const char* unit[] = {"B", "KiB", "MiB", "GiB", "TiB"};
+  int u = 0;
+  while (b >= 1024.0 && u < 4) {
+    b /= 1024.0;
+    ++u;
+  }
+  return u == 0 ? fmt::format("{:.0f} B", b) : fmt::format("{:.1f} {}", b, unit[u]);
+}
+
+inline std::string human_seconds(double s) {
+  if (s < 60) return fmt::format("{:.1f} s", s);
+  const long t = std::lround(s);
+  if (t < 3600) return fmt::format("{}:{:02d}", t / 60, t % 60);
+  return fmt::format("{}:{:02d}:{:02d}", t / 3600, (t / 60) % 60, t % 60);
+}
+
+// An output folder may be new or empty; a non-empty one only with --overwrite.
+inline void check_output_folder(const std::filesystem::path& out, bool overwrite) {
+  std::error_code ec;
+  if (std::filesystem::exists(out, ec) && !std::filesystem::is_directory(out, ec))
+    throw Error(Error::Kind::kArgument,
+                fmt::format("output '{}' exists and is not a folder; give a new folder name",
+                            out.string()));
+  if (std::filesystem::is_directory(out, ec) && !std::filesystem::is_empty(out, ec) && !overwrite)
+    throw Error(Error::Kind::kArgument,
+                fmt::format("output folder '{}' is not empty; give a new folder or add "
+                            "--overwrite to replace its images",
+                            out.string()));
+}
+
+// A file to be written: its folder must exist; an existing file only with --overwrite.
+inline void check_output_file(const std::filesystem::path& out, bool overwrite) {
+  std::error_code ec;
+  const auto dir = out.parent_path().empty() ? std::filesystem::path(".") : out.parent_path();
+  if (!std::filesystem::is_directory(dir, ec))
+    throw Error(Error::Kind::kArgument,
+                fmt::format("cannot write '{}': the folder '{}' does not exist; create it first",
+                            out.string(), dir.string()));
+  if (std::filesystem::exists(out, ec) && !overwrite)
+    throw Error(
+        Error::Kind::kArgument,
+        fmt::format("'{}' exists; give a new name or add --overwrite to replace it", out.string()));
+}
+
+}  // namespace btfgmm::cli

@@ -1,0 +1,150 @@
+// The btfgmm command end to end: generate, info, fit, decode, eval, and its errors.
+#include <gtest/gtest.h>
+
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <string>
+
+#include <sys/wait.h>
+#include <unistd.h>
+
+namespace {
+
+namespace fs = std::filesystem;
+
+struct CliRun {
+  int status = 0;
+  std::string out;  // stdout and stderr together
+};
+
+CliRun run(const std::string& args) {
+  const fs::path log =
+      fs::temp_directory_path() / ("btfgmm_cli_test_" + std::to_string(::getpid()) + ".log");
+  const std::string cmd =
+      std::string(BTFGMM_CLI_PATH) + " " + args + " > " + log.string() + " 2>&1";
+  CliRun r;
+  const int raw = std::system(cmd.c_str());
+  r.status = WIFEXITED(raw) ? WEXITSTATUS(raw) : -1;
+  std::ifstream in(log);
+  r.out.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+  return r;
+}
+
+class Cli : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = fs::temp_directory_path() /
+           ("btfgmm_cli_" +
+            std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()));
+    fs::remove_all(dir_);
+    fs::create_directories(dir_);
+  }
+  void TearDown() override { fs::remove_all(dir_); }
+  std::string p(const std::string& name) const { return (dir_ / name).string(); }
+  fs::path dir_;
+};
+
+const char* kSmall = "--lights rings:0/1,30/4,60/6 --views rings:0/1,45/5";
+
+TEST_F(Cli, GenerateInfoFitInfoEvalDecode) {
+  CliRun r =
+      run(std::string("generate --material knit --size 8 --seed 3 ") + kSmall + " -o " + p("btf"));
+  ASSERT_EQ(r.status, 0) << r.out;
+  r = run("info --json " + p("btf"));
+  ASSERT_EQ(r.status, 0) << r.out;
+  auto j = nlohmann::json::parse(r.out);
+  EXPECT_EQ(j["lights"], 11);
+  EXPECT_EQ(j["views"], 6);
+  EXPECT_EQ(j["width"], 8);
+  EXPECT_EQ(j["bit_depth"], "8-bit");
+  EXPECT_EQ(j["layout"], "UTIA (one folder per view)");
+
+  r = run("fit " + p("btf") + " --tile 0,0,6,6 -M 5 --iterations 3 --seed 2 -o " + p("m.btfgmm"));
+  ASSERT_EQ(r.status, 0) << r.out;
+  EXPECT_NE(r.out.find("iteration   3/3"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("ETA"), std::string::npos) << r.out;
+  r = run("info --json " + p("m.btfgmm"));
+  ASSERT_EQ(r.status, 0) << r.out;
+  j = nlohmann::json::parse(r.out);
+  EXPECT_EQ(j["kind"], "model");
+  EXPECT_EQ(j["iterations"], 3);
+  EXPECT_EQ(j["tile"], nlohmann::json({0, 0, 6, 6}));
+  EXPECT_EQ(j["file_bytes"], fs::file_size(p("m.btfgmm")));
+
+  r = run("eval " + p("m.btfgmm") + " --x 3.5 --y 7.25 --light 30,45 --view 10,200 --json");
+  ASSERT_EQ(r.status, 0) << r.out;
+  j = nlohmann::json::parse(r.out);
+  ASSERT_EQ(j["rgb"].size(), 3u);
+
+  r = run("decode " + p("m.btfgmm") + " -o " + p("dec"));
+  ASSERT_EQ(r.status, 0) << r.out;
+  r = run("info --json " + p("dec"));
+  ASSERT_EQ(r.status, 0) << r.out;
+  j = nlohmann::json::parse(r.out);
+  EXPECT_EQ(j["images"], 66);
+  EXPECT_EQ(j["width"], 6);
+
+  r = run("decode " + p("m.btfgmm") + " -o " + p("one") + " --light 30,90 --view 0,0 --size 20x12");
+  ASSERT_EQ(r.status, 0) << r.out;
+  EXPECT_TRUE(fs::exists(p("one/tv000_pv000/tl030_pl090_tv000_pv000.png")));
+  r = run("info --json " + p("one"));
+  j = nlohmann::json::parse(r.out);
+  EXPECT_EQ(j["width"], 20);
+  EXPECT_EQ(j["height"], 12);
+}
+
+TEST_F(Cli, ErrorsNameTheProblemAndExitNonZero) {
+  CliRun r = run("generate --material velvet -o " + p("x"));
+  EXPECT_EQ(r.status, 1);
+  EXPECT_NE(r.out.find("velvet"), std::string::npos) << r.out;
+  EXPECT_FALSE(fs::exists(p("x")));
+
+  r = run("fit " + p("nowhere") + " -o " + p("m.btfgmm"));
+  EXPECT_EQ(r.status, 1);
+  EXPECT_NE(r.out.find("nowhere"), std::string::npos) << r.out;
+
+  r = run("generate --size 8 " + std::string(kSmall) + " -o " + p("btf"));
+  ASSERT_EQ(r.status, 0) << r.out;
+  // The output folder is checked before any work.
+  r = run("fit " + p("btf") + " -o " + p("missing/m.btfgmm"));
+  EXPECT_EQ(r.status, 1);
+  EXPECT_NE(r.out.find("does not exist"), std::string::npos) << r.out;
+  r = run("fit " + p("btf") + " -M 0 -o " + p("m.btfgmm"));
+  EXPECT_NE(r.status, 0);
+  r = run("fit " + p("btf") + " --tile 4,4,8,8 -o " + p("m.btfgmm"));
+  EXPECT_EQ(r.status, 1);
+  EXPECT_NE(r.out.find("tile"), std::string::npos) << r.out;
+  EXPECT_FALSE(fs::exists(p("m.btfgmm")));
+  r = run("fit " + p("btf") + " --tile 0,0,2,2 -M 300 -o " + p("m.btfgmm"));
+  EXPECT_EQ(r.status, 1) << r.out;
+  EXPECT_NE(r.out.find("more than"), std::string::npos) << r.out;
+
+  // A truncated model file, and a PNG given as a model.
+  r = run("fit " + p("btf") + " -M 3 --iterations 1 -q -o " + p("m.btfgmm"));
+  ASSERT_EQ(r.status, 0) << r.out;
+  {
+    std::ifstream in(p("m.btfgmm"), std::ios::binary);
+    std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    std::ofstream(p("cut.btfgmm"), std::ios::binary) << bytes.substr(0, bytes.size() / 2);
+  }
+  r = run("eval " + p("cut.btfgmm") + " --x 0 --y 0 --light 0,0 --view 0,0");
+  EXPECT_EQ(r.status, 1);
+  EXPECT_NE(r.out.find("cut.btfgmm"), std::string::npos) << r.out;
+  r = run("info " + p("btf/tv000_pv000/tl000_pl000_tv000_pv000.png"));
+  EXPECT_EQ(r.status, 1);
+  EXPECT_NE(r.out.find("PNG"), std::string::npos) << r.out;
+
+  r = run("eval " + p("m.btfgmm") + " --x 0 --y 0 --light 95,0 --view 0,0");
+  EXPECT_EQ(r.status, 1);
+  EXPECT_NE(r.out.find("theta"), std::string::npos) << r.out;
+  r = run("eval " + p("m.btfgmm") + " --x 0 --y 0 --light nan,0 --view 0,0");
+  EXPECT_EQ(r.status, 1);
+  // Refuses to overwrite without --overwrite.
+  r = run("fit " + p("btf") + " -M 3 --iterations 1 -q -o " + p("m.btfgmm"));
+  EXPECT_EQ(r.status, 1);
+  EXPECT_NE(r.out.find("--overwrite"), std::string::npos) << r.out;
+}
+
+}  // namespace
