@@ -284,13 +284,20 @@ TEST(Predict, EqualsHandComputedTwoComponentModel) {
 TEST(Predict, DecodeEqualsPointPredictions) {
   const BtfModel m = two_component_model();
   const Btf d = decode(m, m.lights, m.views, 6, 5);
+  std::vector<Query> queries;
   for (std::size_t l = 0; l < 5; ++l)
     for (std::size_t v = 0; v < 5; ++v)
       for (int y = 0; y < 5; ++y)
-        for (int x = 0; x < 6; ++x) {
-          const auto p = predict(m, Query{double(x), double(y), m.lights[l], m.views[v]});
-          for (int c = 0; c < 3; ++c) EXPECT_NEAR(d.at(l, v, x, y, c), p[c], 1e-3);
-        }
+        for (int x = 0; x < 6; ++x)
+          queries.push_back({double(x), double(y), m.lights[l], m.views[v]});
+  std::vector<float> rgb(queries.size() * 3);
+  predict(m, queries, rgb);
+  std::size_t i = 0;
+  for (std::size_t l = 0; l < 5; ++l)
+    for (std::size_t v = 0; v < 5; ++v)
+      for (int y = 0; y < 5; ++y)
+        for (int x = 0; x < 6; ++x, ++i)
+          for (int c = 0; c < 3; ++c) EXPECT_NEAR(d.at(l, v, x, y, c), rgb[i * 3 + c], 1e-3);
 }
 
 TEST(ModelFile, RoundTripIsBitExact) {
