@@ -5,8 +5,11 @@
 #include <fmt/format.h>
 
 #include <charconv>
+#include <chrono>
 #include <cmath>
 #include <filesystem>
+#include <nlohmann/json.hpp>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -124,6 +127,51 @@ inline void check_output_file(const std::filesystem::path& out, bool overwrite) 
     throw Error(
         Error::Kind::kArgument,
         fmt::format("'{}' exists; give a new name or add --overwrite to replace it", out.string()));
+}
+
+using Clock = std::chrono::steady_clock;
+inline double since(Clock::time_point t) {
+  return std::chrono::duration<double>(Clock::now() - t).count();
+}
+
+inline std::string describe_set(const btfgmm::DirectionSet& s) {
+  if (s == btfgmm::DirectionSet::ubo81()) return "81 (the UBO2003/UTIA set)";
+  double lo = 90, hi = 0;
+  std::set<double> thetas;
+  for (const auto& d : s) {
+    lo = std::min(lo, d.theta_deg);
+    hi = std::max(hi, d.theta_deg);
+    thetas.insert(d.theta_deg);
+  }
+  return fmt::format("{} (theta {:g}..{:g} deg, {} distinct elevations)", s.size(), lo, hi,
+                     thetas.size());
+}
+
+inline nlohmann::json set_json(const btfgmm::DirectionSet& s) {
+  nlohmann::json a = nlohmann::json::array();
+  for (const auto& d : s) a.push_back({d.theta_deg, d.phi_deg});
+  return a;
+}
+
+inline std::string format_name(btfgmm::ImageFormat f) {
+  switch (f) {
+    case btfgmm::ImageFormat::kPng:
+      return "PNG";
+    case btfgmm::ImageFormat::kJpeg:
+      return "JPEG";
+    case btfgmm::ImageFormat::kExr:
+      return "OpenEXR";
+  }
+  return "?";
+}
+
+// A path names a model file when it is a regular file that is not a zip.
+inline bool is_model_path(const std::filesystem::path& p) {
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(p, ec)) return false;
+  std::string ext = p.extension().string();
+  for (char& c : ext) c = char(std::tolower(static_cast<unsigned char>(c)));
+  return ext != ".zip";
 }
 
 }  // namespace btfgmm::cli

@@ -1,0 +1,177 @@
+// btfgmm generate and info.
+#include <fmt/format.h>
+
+#include <filesystem>
+#include <iostream>
+#include <memory>
+
+#include "btfgmm/btfgmm.hpp"
+#include "btfgmm/model.hpp"
+#include "cli_util.hpp"
+#include "commands.hpp"
+
+namespace btfgmm::cli {
+namespace {
+
+namespace fs = std::filesystem;
+
+// ---- generate ----------------------------------------------------------------------------
+
+struct GenerateOptions {
+  std::string material = "corduroy";
+  int size = 32;
+  std::uint64_t seed = 1;
+  std::string lights = "ubo81", views = "ubo81";
+  bool hdr = false;
+  int supersample = 2;
+  std::string out;
+  bool overwrite = false;
+};
+
+void run_generate(const GenerateOptions& o) {
+  btfgmm::GenerateConfig c;
+  c.material = o.material;
+  c.size = o.size;
+  c.seed = o.seed;
+  c.lights = btfgmm::DirectionSet::parse(o.lights);
+  c.views = btfgmm::DirectionSet::parse(o.views);
+  c.hdr = o.hdr;
+  c.supersample = o.supersample;
+  check_output_folder(o.out, o.overwrite);
+  const auto t0 = Clock::now();
+  fmt::print(stderr, "generating {} ({}x{} pixels, {} lights x {} views, seed {})...\n", c.material,
+             c.size, c.size, c.lights.size(), c.views.size(), c.seed);
+  const btfgmm::Btf btf = btfgmm::generate(c);
+  const double rendered = since(t0);
+  btfgmm::write_utia(btf, o.out);
+  fmt::print(stderr, "wrote {} images to {} (rendered in {:.1f} s, written in {:.1f} s)\n",
+             btf.image_count(), o.out, rendered, since(t0) - rendered);
+}
+
+// ---- info --------------------------------------------------------------------------------
+
+void info_btf(const std::string& path, bool json) {
+  const btfgmm::BtfSource src = btfgmm::BtfSource::open(path);
+  const btfgmm::BtfInfo& i = src.info();
+  const std::uint64_t images = i.lights.size() * i.views.size();
+  const double raw8 = double(images) * i.width * i.height * 3.0;
+  if (json) {
+    nlohmann::json j;
+    j["path"] = path;
+    j["kind"] = "btf";
+    j["layout"] = btfgmm::to_string(i.layout);
+    j["lights"] = i.lights.size();
+    j["views"] = i.views.size();
+    j["images"] = images;
+    j["width"] = i.width;
+    j["height"] = i.height;
+    j["bit_depth"] = btfgmm::to_string(i.format);
+    j["image_format"] = format_name(i.image_format);
+    j["file_bytes"] = i.file_bytes;
+    j["raw_bytes_8bit"] = std::uint64_t(raw8);
+    j["ignored_files"] = i.ignored_files;
+    j["light_directions"] = set_json(i.lights);
+    j["view_directions"] = set_json(i.views);
+    std::cout << j.dump(2) << "\n";
+    return;
+  }
+  fmt::print("{}\n", path);
+  fmt::print("  layout       {}\n", btfgmm::to_string(i.layout));
+  fmt::print("  lights       {}\n", describe_set(i.lights));
+  fmt::print("  views        {}\n", describe_set(i.views));
+  fmt::print("  images       {} ({} x {})\n", images, i.lights.size(), i.views.size());
+  fmt::print("  image size   {} x {} pixels, RGB\n", i.width, i.height);
+  fmt::print("  bit depth    {} ({})\n", btfgmm::to_string(i.format), format_name(i.image_format));
+  fmt::print("  bytes        {} in files; {} as 8-bit RGB (W*H*ni*nv*3 = {:.0f})\n",
+             human_bytes(double(i.file_bytes)), human_bytes(raw8), raw8);
+  if (i.ignored_files > 0)
+    fmt::print("  ignored      {} files that are not images\n", i.ignored_files);
+  fmt::print("  first image  {}\n", src.image_name(0, 0));
+}
+
+void info_model(const std::string& path, bool json) {
+  const btfgmm::BtfModel m = btfgmm::load_model(path);
+  const std::uint64_t bytes = fs::file_size(path);
+  const auto& s = m.settings;
+  if (json) {
+    nlohmann::json j;
+    j["path"] = path;
+    j["kind"] = "model";
+    j["format_version"] = btfgmm::kModelFormatVersion;
+    j["tile"] = {m.origin.x, m.origin.y, m.width, m.height};
+    j["lights"] = m.lights.size();
+    j["views"] = m.views.size();
+    j["bit_depth"] = btfgmm::to_string(m.format);
+    j["components"] = m.mixture.size();
+    j["components_requested"] = s.components;
+    j["components_dropped"] = s.dropped;
+    j["iterations"] = s.iterations;
+    j["max_iterations"] = s.max_iterations;
+    j["epsilon"] = s.epsilon;
+    j["seed"] = s.seed;
+    j["log_likelihood"] = s.log_likelihood;
+    j["fit_seconds"] = s.seconds;
+    j["precision"] = m.precision == btfgmm::Precision::kF16 ? "f16" : "f32";
+    j["file_bytes"] = bytes;
+    j["compression_ratio_paper"] = m.compression_ratio_paper();
+    j["compression_ratio_file"] = m.compression_ratio_file(bytes);
+    std::cout << j.dump(2) << "\n";
+    return;
+  }
+  fmt::print("{}\n", path);
+  fmt::print("  model        btfgmm format {}, {} parameters\n", btfgmm::kModelFormatVersion,
+             m.precision == btfgmm::Precision::kF16 ? "16-bit float" : "32-bit float");
+  fmt::print("  tile         {}x{} pixels at ({}, {}) of the source, {} data\n", m.width, m.height,
+             m.origin.x, m.origin.y, btfgmm::to_string(m.format));
+  fmt::print("  lights       {}\n", describe_set(m.lights));
+  fmt::print("  views        {}\n", describe_set(m.views));
+  fmt::print("  components   M = {} ({} requested, {} dropped by EM)\n", m.mixture.size(),
+             s.components, s.dropped);
+  fmt::print("  fit          {} of at most {} iterations, epsilon {:g}, seed {}, {}\n",
+             s.iterations, s.max_iterations, s.epsilon, s.seed, human_seconds(s.seconds));
+  fmt::print("  log-lik.     {:.6f} per sample (model units)\n", s.log_likelihood);
+  fmt::print("  file         {} bytes ({})\n", bytes, human_bytes(double(bytes)));
+  fmt::print("  compression  1:{:.1f} by the paper's count, 1:{:.1f} by the file's bytes\n",
+             m.compression_ratio_paper(), m.compression_ratio_file(bytes));
+}
+
+}  // namespace
+
+void register_data_commands(CLI::App& app, Commands& commands) {
+  auto gen = std::make_shared<GenerateOptions>();
+  auto* g = app.add_subcommand("generate",
+                               "Render a synthetic BTF of a procedural material "
+                               "and write it in the UTIA layout");
+  g->add_option("--material", gen->material, "Material: corduroy, knit, bumps, ...")
+      ->capture_default_str();
+  g->add_option("--size", gen->size, "Image width = height in pixels")
+      ->check(CLI::Range(4, 8192))
+      ->capture_default_str();
+  g->add_option("--seed", gen->seed, "Random seed (equal seeds give equal BTFs)")
+      ->capture_default_str();
+  g->add_option("--lights", gen->lights, "Light directions: ubo81, spiral:N, rings:T/N,...")
+      ->capture_default_str();
+  g->add_option("--views", gen->views, "View directions: ubo81, spiral:N, rings:T/N,...")
+      ->capture_default_str();
+  g->add_flag("--hdr", gen->hdr, "Write linear float OpenEXR images instead of 8-bit PNG");
+  g->add_option("--supersample", gen->supersample, "Rays per pixel side")
+      ->check(CLI::Range(1, 8))
+      ->capture_default_str();
+  g->add_option("-o,--output", gen->out, "Output folder")->required();
+  g->add_flag("--overwrite", gen->overwrite, "Replace images in a non-empty output folder");
+
+  commands.push_back({g, [gen] { run_generate(*gen); }});
+
+  auto info_path = std::make_shared<std::string>();
+  auto info_json = std::make_shared<bool>(false);
+  auto* inf = app.add_subcommand("info", "Describe a BTF (folder or Bonn .zip) or a model file");
+  inf->add_option("path", *info_path, "A BTF folder or .zip, or a .btfgmm model")->required();
+  inf->add_flag("--json", *info_json, "One JSON object for scripts");
+
+  commands.push_back({inf, [info_path, info_json] {
+                        is_model_path(*info_path) ? info_model(*info_path, *info_json)
+                                                  : info_btf(*info_path, *info_json);
+                      }});
+}
+
+}  // namespace btfgmm::cli

@@ -1,0 +1,187 @@
+// btfgmm fit, decode and eval.
+#include <fmt/format.h>
+
+#include <filesystem>
+#include <iostream>
+#include <memory>
+
+#include "btfgmm/btfgmm.hpp"
+#include "btfgmm/model.hpp"
+#include "cli_util.hpp"
+#include "commands.hpp"
+
+namespace btfgmm::cli {
+namespace {
+
+namespace fs = std::filesystem;
+
+// ---- fit ---------------------------------------------------------------------------------
+
+struct FitOptions {
+  std::string input, out, tile, precision = "f32";
+  std::size_t components = 600;
+  int iterations = 40;
+  double epsilon = 0.0;
+  std::uint64_t seed = 1;
+  int threads = 0;
+  bool overwrite = false, quiet = false;
+};
+
+void run_fit(const FitOptions& o) {
+  if (o.precision != "f32" && o.precision != "f16")
+    throw Error(Error::Kind::kArgument,
+                fmt::format("--precision '{}': give f32 or f16", o.precision));
+  check_output_file(o.out, o.overwrite);
+  const auto t0 = Clock::now();
+  const btfgmm::BtfSource src = btfgmm::BtfSource::open(o.input);
+  const btfgmm::Tile tile = o.tile.empty() ? btfgmm::Tile{} : parse_tile(o.tile);
+  const btfgmm::Btf btf = src.load(tile);
+  const std::size_t n = btf.image_count() * std::size_t(btf.width()) * btf.height();
+  if (!o.quiet)
+    fmt::print(stderr,
+               "loaded {}x{} pixels at ({}, {}) x {} lights x {} views = {} samples in {}\n",
+               btf.width(), btf.height(), btf.origin().x, btf.origin().y, btf.lights().size(),
+               btf.views().size(), n, human_seconds(since(t0)));
+  btfgmm::FitConfig c;
+  c.components = o.components;
+  c.seed = o.seed;
+  c.em.max_iterations = o.iterations;
+  c.em.epsilon = o.epsilon;
+  c.em.threads = o.threads;
+  auto progress = [&](const btfgmm::EmProgress& p) {
+    if (o.quiet) return;
+    const double per = p.seconds / p.iteration;
+    fmt::print(stderr,
+               "iteration {:>3}/{}  L = {:.6f}  gain {:+.2e}  components {} ({} dropped)  {}  "
+               "ETA {}\n",
+               p.iteration, p.max_iterations, p.log_likelihood, p.relative_gain, p.components,
+               p.dropped, human_seconds(p.seconds),
+               human_seconds(per * (p.max_iterations - p.iteration)));
+  };
+  btfgmm::BtfModel model = btfgmm::fit_model(btf, c, progress);
+  model.precision = o.precision == "f16" ? btfgmm::Precision::kF16 : btfgmm::Precision::kF32;
+  btfgmm::save_model(model, o.out);
+  const std::uint64_t bytes = fs::file_size(o.out);
+  fmt::print(stderr,
+             "wrote {}: M = {} ({} dropped), L = {:.6f}, {} bytes, compression 1:{:.1f} "
+             "(paper's count) / 1:{:.1f} (file), fit in {}\n",
+             o.out, model.mixture.size(), model.settings.dropped, model.settings.log_likelihood,
+             bytes, model.compression_ratio_paper(), model.compression_ratio_file(bytes),
+             human_seconds(model.settings.seconds));
+}
+
+// ---- decode ------------------------------------------------------------------------------
+
+struct DecodeOptions {
+  std::string model, out, size;
+  std::vector<std::string> lights, views;
+  bool overwrite = false;
+};
+
+void run_decode(const DecodeOptions& o) {
+  const btfgmm::BtfModel m = btfgmm::load_model(o.model);
+  check_output_folder(o.out, o.overwrite);
+  auto directions = [](const std::vector<std::string>& given, const btfgmm::DirectionSet& all,
+                       const char* option) {
+    if (given.empty()) return all;
+    std::vector<btfgmm::Direction> d;
+    for (const auto& g : given) d.push_back(parse_direction(g, option));
+    return btfgmm::DirectionSet(std::move(d));
+  };
+  const btfgmm::DirectionSet lights = directions(o.lights, m.lights, "--light");
+  const btfgmm::DirectionSet views = directions(o.views, m.views, "--view");
+  const auto [w, h] = o.size.empty() ? std::pair{m.width, m.height} : parse_size(o.size);
+  const auto t0 = Clock::now();
+  // One light at a time: a large repeated size need not fit in memory at once.
+  for (std::size_t l = 0; l < lights.size(); ++l) {
+    const btfgmm::Btf part = btfgmm::decode(m, btfgmm::DirectionSet({lights[l]}), views, w, h);
+    btfgmm::write_utia(part, o.out);
+  }
+  fmt::print(stderr, "wrote {} images of {}x{} pixels to {} in {}\n", lights.size() * views.size(),
+             w, h, o.out, human_seconds(since(t0)));
+}
+
+// ---- eval --------------------------------------------------------------------------------
+
+struct EvalOptions {
+  std::string model, light, view;
+  double x = 0, y = 0;
+  bool json = false;
+};
+
+void run_eval(const EvalOptions& o) {
+  const btfgmm::BtfModel m = btfgmm::load_model(o.model);
+  const btfgmm::Query q{o.x, o.y, parse_direction(o.light, "--light"),
+                        parse_direction(o.view, "--view")};
+  const auto rgb = btfgmm::predict(m, q);
+  if (o.json) {
+    nlohmann::json j;
+    j["x"] = o.x;
+    j["y"] = o.y;
+    j["light"] = {q.light.theta_deg, q.light.phi_deg};
+    j["view"] = {q.view.theta_deg, q.view.phi_deg};
+    j["rgb"] = {rgb[0], rgb[1], rgb[2]};
+    std::cout << j.dump() << "\n";
+  } else {
+    fmt::print("{:.4f} {:.4f} {:.4f}\n", rgb[0], rgb[1], rgb[2]);
+  }
+}
+
+}  // namespace
+
+void register_model_commands(CLI::App& app, Commands& commands) {
+  auto fit = std::make_shared<FitOptions>();
+  auto* f = app.add_subcommand("fit", "Fit the Gaussian mixture model to a BTF tile");
+  f->add_option("input", fit->input, "A BTF folder or Bonn .zip")->required();
+  f->add_option("--tile", fit->tile, "X,Y,W,H of the tile to fit (default: the whole image)");
+  f->add_option("--components,-M", fit->components, "Number of mixture components M")
+      ->check(CLI::Range(std::size_t(1), std::size_t(100000)))
+      ->capture_default_str();
+  f->add_option("--iterations", fit->iterations, "Maximum EM iterations")
+      ->check(CLI::Range(1, 100000))
+      ->capture_default_str();
+  f->add_option("--epsilon", fit->epsilon, "Stop when the relative gain of L is below this")
+      ->check(CLI::Range(0.0, 1.0))
+      ->capture_default_str();
+  f->add_option("--seed", fit->seed, "Seed of the random initialisation")->capture_default_str();
+  f->add_option("--threads", fit->threads,
+                "Threads (0: all cores; the model does not depend "
+                "on it)")
+      ->check(CLI::Range(0, 1024))
+      ->capture_default_str();
+  f->add_option("--precision", fit->precision, "Parameters stored as f32 or f16")
+      ->capture_default_str();
+  f->add_option("-o,--output", fit->out, "The model file to write (.btfgmm)")->required();
+  f->add_flag("--overwrite", fit->overwrite, "Replace an existing model file");
+  f->add_flag("-q,--quiet", fit->quiet, "No progress on stderr");
+
+  commands.push_back({f, [fit] { run_fit(*fit); }});
+
+  auto dec = std::make_shared<DecodeOptions>();
+  auto* d = app.add_subcommand("decode", "Decode a model into images (UTIA layout)");
+  d->add_option("model", dec->model, "A .btfgmm model")->required();
+  d->add_option("-o,--output", dec->out, "Output folder")->required();
+  d->add_option("--light", dec->lights,
+                "Light THETA,PHI in degrees (repeatable; default: the "
+                "measured set)");
+  d->add_option("--view", dec->views,
+                "View THETA,PHI in degrees (repeatable; default: the "
+                "measured set)");
+  d->add_option("--size", dec->size, "N or WxH pixels, the tile repeated (default: the tile)");
+  d->add_flag("--overwrite", dec->overwrite, "Replace images in a non-empty output folder");
+
+  commands.push_back({d, [dec] { run_decode(*dec); }});
+
+  auto ev = std::make_shared<EvalOptions>();
+  auto* e = app.add_subcommand("eval", "Evaluate a model at one pixel, light and view");
+  e->add_option("model", ev->model, "A .btfgmm model")->required();
+  e->add_option("--x", ev->x, "Pixel x (any real number; the tile repeats)")->required();
+  e->add_option("--y", ev->y, "Pixel y (any real number; the tile repeats)")->required();
+  e->add_option("--light", ev->light, "Light THETA,PHI in degrees")->required();
+  e->add_option("--view", ev->view, "View THETA,PHI in degrees")->required();
+  e->add_flag("--json", ev->json, "One JSON object for scripts");
+
+  commands.push_back({e, [ev] { run_eval(*ev); }});
+}
+
+}  // namespace btfgmm::cli

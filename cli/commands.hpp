@@ -1,0 +1,21 @@
+// The btfgmm subcommands. Each group registers its subcommands on the app and the action to
+// run when one of them was chosen; main() parses and runs it.
+#pragma once
+
+#include <CLI/CLI.hpp>
+
+#include <functional>
+#include <vector>
+
+namespace btfgmm::cli {
+
+struct Command {
+  CLI::App* app;
+  std::function<void()> run;
+};
+using Commands = std::vector<Command>;
+
+void register_data_commands(CLI::App& app, Commands& commands);   // generate, info
+void register_model_commands(CLI::App& app, Commands& commands);  // fit, decode, eval
+
+}  // namespace btfgmm::cli
