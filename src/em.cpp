@@ -29,28 +29,34 @@ namespace {
 
 constexpr std::size_t kChunks = 16;
 
+// Components are padded to a multiple of kLanes with entries whose log density is -1e30 (their
+// exp is exactly 0), so every loop over components runs whole vectors.
+constexpr std::size_t kLanes = 16;
+constexpr float kAbsent = -1e30f;
+
 struct Tables {
-  std::size_t m = 0;
-  std::vector<float> s, l, v;               // P x M, ni x M, nv x M
-  std::vector<float> mu, neg_half_inv_var;  // 3 x M each (colour)
+  std::size_t m = 0, stride = 0;             // components, padded count
+  std::vector<float> s, l, v;                // P x stride, ni x stride, nv x stride
+  std::vector<float> mu, neg_half_inv_var;   // 3 x stride each (colour)
 };
 
 Tables make_tables(const SampleSet& s, const ProductMixture& mix) {
   Tables t;
   const std::size_t m_count = t.m = mix.size();
-  t.s.resize(s.pixels() * m_count);
-  t.l.resize(s.lights * m_count);
-  t.v.resize(s.views * m_count);
-  t.mu.resize(3 * m_count);
-  t.neg_half_inv_var.resize(3 * m_count);
+  const std::size_t st = t.stride = (m_count + kLanes - 1) / kLanes * kLanes;
+  t.s.assign(s.pixels() * st, kAbsent);
+  t.l.assign(s.lights * st, 0.0f);
+  t.v.assign(s.views * st, 0.0f);
+  t.mu.assign(3 * st, 0.0f);
+  t.neg_half_inv_var.assign(3 * st, 0.0f);
   std::vector<double> base(m_count);
   for (std::size_t m = 0; m < m_count; ++m) {
     double b = std::log(mix.weight[m]) - 0.5 * kVariables * std::log(2.0 * std::numbers::pi);
     for (int n = 0; n < kVariables; ++n) b -= 0.5 * std::log(mix.var[m][n]);
     base[m] = b;
     for (int c = 0; c < 3; ++c) {
-      t.mu[c * m_count + m] = float(mix.mean[m][6 + c]);
-      t.neg_half_inv_var[c * m_count + m] = float(-0.5 / mix.var[m][6 + c]);
+      t.mu[c * st + m] = float(mix.mean[m][6 + c]);
+      t.neg_half_inv_var[c * st + m] = float(-0.5 / mix.var[m][6 + c]);
     }
   }
   auto gauss = [&](std::size_t m, int n, double x) {
@@ -60,110 +66,164 @@ Tables make_tables(const SampleSet& s, const ProductMixture& mix) {
   for (std::size_t p = 0; p < s.pixels(); ++p) {
     const double x = double(p % std::size_t(s.width)), y = double(p / std::size_t(s.width));
     for (std::size_t m = 0; m < m_count; ++m)
-      t.s[p * m_count + m] = float(base[m] + gauss(m, 0, x) + gauss(m, 1, y));
+      t.s[p * st + m] = float(base[m] + gauss(m, 0, x) + gauss(m, 1, y));
   }
   for (std::size_t l = 0; l < s.lights; ++l)
     for (std::size_t m = 0; m < m_count; ++m)
-      t.l[l * m_count + m] = float(gauss(m, 2, s.light_ab[l][0]) + gauss(m, 3, s.light_ab[l][1]));
+      t.l[l * st + m] = float(gauss(m, 2, s.light_ab[l][0]) + gauss(m, 3, s.light_ab[l][1]));
   for (std::size_t v = 0; v < s.views; ++v)
     for (std::size_t m = 0; m < m_count; ++m)
-      t.v[v * m_count + m] = float(gauss(m, 4, s.view_ab[v][0]) + gauss(m, 5, s.view_ab[v][1]));
+      t.v[v * st + m] = float(gauss(m, 4, s.view_ab[v][0]) + gauss(m, 5, s.view_ab[v][1]));
   return t;
 }
 
 struct ChunkStats {
-  std::vector<double> ql, qv, c1, c2;  // ni x M, nv x M, 3 x M, 3 x M
-  double ll = 0.0;
+  std::vector<double> ql, qv, c1, c2;  // ni x stride, nv x stride, 3 x stride, 3 x stride
 };
 
-// The log densities of one sample for every component: t[m] = sl[m] + v[m] + colour terms.
-inline void log_densities(const Tables& t, const float* sl, const float* vrow, const float* r,
-                          float* out) {
-  const std::size_t m_count = t.m;
-  const float *mu0 = t.mu.data(), *mu1 = mu0 + m_count, *mu2 = mu1 + m_count;
-  const float *h0 = t.neg_half_inv_var.data(), *h1 = h0 + m_count, *h2 = h1 + m_count;
-  const float r0 = r[0], r1 = r[1], r2 = r[2];
-#pragma omp simd
-  for (std::size_t m = 0; m < m_count; ++m) {
-    const float d0 = r0 - mu0[m], d1 = r1 - mu1[m], d2 = r2 - mu2[m];
-    out[m] = sl[m] + vrow[m] + h0[m] * d0 * d0 + h1[m] * d1 * d1 + h2[m] * d2 * d2;
+// Per-thread work space of the E pass.
+struct Workspace {
+  std::vector<float> sl, t, a0, a1, a2, qv;
+  explicit Workspace(std::size_t stride, std::size_t views, int group)
+      : sl(stride), t(std::size_t(group) * stride), a0(stride), a1(3 * stride), a2(3 * stride),
+        qv(views * stride) {}
+};
+
+// G samples of one (pixel, light) block: views v0 .. v0 + G - 1. Eq. (3)-(4) for each sample,
+// and with `stats` the responsibilities folded into the block's accumulators at once:
+// a0 += sum q, a1 += sum q d, a2 += sum q d^2 (d = colour - mean), qv[view] += q. The G samples
+// share every load of a component's parameters.
+template <int G>
+double group_pass(const Tables& t, const SampleSet& s, std::size_t p, std::size_t l,
+                  std::size_t v0, Workspace& w, bool stats) {
+  const std::size_t st = t.stride;
+  const float* __restrict sl = w.sl.data();
+  const float* __restrict mu0 = t.mu.data();
+  const float* __restrict mu1 = mu0 + st;
+  const float* __restrict mu2 = mu1 + st;
+  const float* __restrict h0 = t.neg_half_inv_var.data();
+  const float* __restrict h1 = h0 + st;
+  const float* __restrict h2 = h1 + st;
+  float r[G][3];
+  const float* vrow[G];
+  float* __restrict tt[G];
+  for (int g = 0; g < G; ++g) {
+    const float* rr = &s.residual[s.index(p, l, v0 + std::size_t(g)) * 3];
+    r[g][0] = rr[0];
+    r[g][1] = rr[1];
+    r[g][2] = rr[2];
+    vrow[g] = &t.v[(v0 + std::size_t(g)) * st];
+    tt[g] = &w.t[std::size_t(g) * st];
   }
-}
-
-// exp(t - max) in place; returns (max, sum).
-inline std::pair<float, float> exp_normalise(float* t, std::size_t m_count) {
-  float mx = -INFINITY;
+  // log w_m F(x | m) for the G samples (the per-pixel, per-light and per-view parts from the
+  // tables, the colour terms here).
+#pragma omp simd
+  for (std::size_t m = 0; m < st; ++m) {
+    const float base = sl[m], m0 = mu0[m], m1 = mu1[m], m2 = mu2[m];
+    const float k0 = h0[m], k1 = h1[m], k2 = h2[m];
+#pragma GCC unroll 8
+    for (int g = 0; g < G; ++g) {
+      const float d0 = r[g][0] - m0, d1 = r[g][1] - m1, d2 = r[g][2] - m2;
+      tt[g][m] = base + vrow[g][m] + k0 * d0 * d0 + k1 * d1 * d1 + k2 * d2 * d2;
+    }
+  }
+  // Eq. (4) by log-sum-exp, and Eq. (3).
+  double ll = 0.0;
+  float inv[G];
+  for (int g = 0; g < G; ++g) {
+    float* __restrict x = tt[g];
+    float mx = -INFINITY;
 #pragma omp simd reduction(max : mx)
-  for (std::size_t m = 0; m < m_count; ++m) mx = std::max(mx, t[m]);
-  float sum = 0.0f;
+    for (std::size_t m = 0; m < st; ++m) mx = x[m] > mx ? x[m] : mx;
+    float sum = 0.0f;
 #pragma omp simd reduction(+ : sum)
-  for (std::size_t m = 0; m < m_count; ++m) sum += (t[m] = detail::fast_exp(t[m] - mx));
-  return {mx, sum};
+    for (std::size_t m = 0; m < st; ++m) sum += (x[m] = detail::fast_exp(x[m] - mx));
+    ll += double(mx) + std::log(double(sum));
+    inv[g] = 1.0f / sum;
+  }
+  if (!stats) return ll;
+  float* __restrict a0 = w.a0.data();
+  float* __restrict a1 = w.a1.data();
+  float* __restrict a2 = w.a2.data();
+  float* __restrict qv[G];
+  for (int g = 0; g < G; ++g) qv[g] = &w.qv[(v0 + std::size_t(g)) * st];
+#pragma omp simd
+  for (std::size_t m = 0; m < st; ++m) {
+    const float m0 = mu0[m], m1 = mu1[m], m2 = mu2[m];
+    float s0 = 0, s1a = 0, s1b = 0, s1c = 0, s2a = 0, s2b = 0, s2c = 0;
+#pragma GCC unroll 8
+    for (int g = 0; g < G; ++g) {
+      const float q = tt[g][m] * inv[g];
+      const float d0 = r[g][0] - m0, d1 = r[g][1] - m1, d2 = r[g][2] - m2;
+      const float q0 = q * d0, q1 = q * d1, q2 = q * d2;
+      s0 += q;
+      s1a += q0;
+      s1b += q1;
+      s1c += q2;
+      s2a += q0 * d0;
+      s2b += q1 * d1;
+      s2c += q2 * d2;
+      qv[g][m] += q;
+    }
+    a0[m] += s0;
+    a1[m] += s1a;
+    a1[st + m] += s1b;
+    a1[2 * st + m] += s1c;
+    a2[m] += s2a;
+    a2[st + m] += s2b;
+    a2[2 * st + m] += s2c;
+  }
+  return ll;
 }
 
-// One E pass. With `stats`, folds the responsibilities into qp (P x M) and the chunks.
+constexpr int kGroup = 4;
+
+// One E pass. With `stats`, folds the responsibilities into qp (P x stride) and the chunks.
+// Accumulation: float within a (pixel, light) block of nv samples (and per view within a
+// pixel's ni blocks), double beyond, in a fixed order per chunk.
 double e_pass(const SampleSet& s, const Tables& t, int threads, std::vector<double>* qp,
               std::vector<ChunkStats>* stats) {
-  const std::size_t m_count = t.m, ni = s.lights, nv = s.views, pixels = s.pixels();
+  const std::size_t st = t.stride, ni = s.lights, nv = s.views, pixels = s.pixels();
   std::vector<double> chunk_ll(kChunks, 0.0);
   std::exception_ptr failure;
+  const bool want = stats != nullptr;
 #pragma omp parallel num_threads(threads)
   {
-    std::vector<float> sl(m_count), e(m_count), a0(m_count), a1(3 * m_count), a2(3 * m_count);
+    Workspace w(st, nv, kGroup);
 #pragma omp for schedule(dynamic, 1)
     for (std::size_t c = 0; c < kChunks; ++c) {
       try {
-        ChunkStats* cs = stats ? &(*stats)[c] : nullptr;
+        ChunkStats* cs = want ? &(*stats)[c] : nullptr;
         double ll = 0.0;
         for (std::size_t p = c * pixels / kChunks; p < (c + 1) * pixels / kChunks; ++p) {
+          if (want) std::fill(w.qv.begin(), w.qv.end(), 0.0f);
           for (std::size_t l = 0; l < ni; ++l) {
-            const float* srow = &t.s[p * m_count];
-            const float* lrow = &t.l[l * m_count];
+            const float* srow = &t.s[p * st];
+            const float* lrow = &t.l[l * st];
 #pragma omp simd
-            for (std::size_t m = 0; m < m_count; ++m) sl[m] = srow[m] + lrow[m];
-            if (cs) {
-              std::fill(a0.begin(), a0.end(), 0.0f);
-              std::fill(a1.begin(), a1.end(), 0.0f);
-              std::fill(a2.begin(), a2.end(), 0.0f);
+            for (std::size_t m = 0; m < st; ++m) w.sl[m] = srow[m] + lrow[m];
+            if (want) {
+              std::fill(w.a0.begin(), w.a0.end(), 0.0f);
+              std::fill(w.a1.begin(), w.a1.end(), 0.0f);
+              std::fill(w.a2.begin(), w.a2.end(), 0.0f);
             }
-            for (std::size_t v = 0; v < nv; ++v) {
-              const float* r = &s.residual[s.index(p, l, v) * 3];
-              log_densities(t, sl.data(), &t.v[v * m_count], r, e.data());
-              const auto [mx, sum] = exp_normalise(e.data(), m_count);
-              ll += double(mx) + std::log(double(sum));  // Eq. (3)
-              if (!cs) continue;
-              // Eq. (4): q = e / sum, folded into the statistics of Eq. (5)-(7) at once.
-              const float inv = 1.0f / sum;
-              double* qv = &cs->qv[v * m_count];
-              const float* mu = t.mu.data();
-              const float r0 = r[0], r1 = r[1], r2 = r[2];
-#pragma omp simd
-              for (std::size_t m = 0; m < m_count; ++m) {
-                const float q = e[m] * inv;
-                const float d0 = r0 - mu[m], d1 = r1 - mu[m_count + m],
-                            d2 = r2 - mu[2 * m_count + m];
-                a0[m] += q;
-                a1[m] += q * d0;
-                a1[m_count + m] += q * d1;
-                a1[2 * m_count + m] += q * d2;
-                a2[m] += q * d0 * d0;
-                a2[m_count + m] += q * d1 * d1;
-                a2[2 * m_count + m] += q * d2 * d2;
-                qv[m] += double(q);
-              }
+            std::size_t v = 0;
+            for (; v + kGroup <= nv; v += kGroup) ll += group_pass<kGroup>(t, s, p, l, v, w, want);
+            for (; v < nv; ++v) ll += group_pass<1>(t, s, p, l, v, w, want);
+            if (!want) continue;
+            double* qpp = &(*qp)[p * st];
+            double* qll = &cs->ql[l * st];
+            for (std::size_t m = 0; m < st; ++m) {
+              qpp[m] += double(w.a0[m]);
+              qll[m] += double(w.a0[m]);
             }
-            if (!cs) continue;
-            double* qpp = &(*qp)[p * m_count];
-            double* qll = &cs->ql[l * m_count];
-            for (std::size_t m = 0; m < m_count; ++m) {
-              qpp[m] += double(a0[m]);
-              qll[m] += double(a0[m]);
-            }
-            for (std::size_t k = 0; k < 3 * m_count; ++k) {
-              cs->c1[k] += double(a1[k]);
-              cs->c2[k] += double(a2[k]);
+            for (std::size_t k = 0; k < 3 * st; ++k) {
+              cs->c1[k] += double(w.a1[k]);
+              cs->c2[k] += double(w.a2[k]);
             }
           }
+          if (want)
+            for (std::size_t k = 0; k < nv * st; ++k) cs->qv[k] += double(w.qv[k]);
         }
         chunk_ll[c] = ll;
       } catch (...) {
@@ -194,18 +254,18 @@ EmResult fit_em(const SampleSet& s, ProductMixture& mix, const EmConfig& config,
   for (int it = 1; it <= config.max_iterations; ++it) {
     const std::size_t m_count = mix.size();
     const Tables t = make_tables(s, mix);
-    std::vector<double> qp(pixels * m_count, 0.0);
+    const std::size_t st = t.stride;
+    std::vector<double> qp(pixels * st, 0.0);
     std::vector<ChunkStats> chunks(kChunks);
     for (auto& c : chunks) {
-      c.ql.assign(ni * m_count, 0.0);
-      c.qv.assign(nv * m_count, 0.0);
-      c.c1.assign(3 * m_count, 0.0);
-      c.c2.assign(3 * m_count, 0.0);
+      c.ql.assign(ni * st, 0.0);
+      c.qv.assign(nv * st, 0.0);
+      c.c1.assign(3 * st, 0.0);
+      c.c2.assign(3 * st, 0.0);
     }
     const double ll = e_pass(s, t, threads, &qp, &chunks);
     // Reduce the chunks in order.
-    std::vector<double> ql(ni * m_count, 0.0), qv(nv * m_count, 0.0), c1(3 * m_count, 0.0),
-        c2(3 * m_count, 0.0);
+    std::vector<double> ql(ni * st, 0.0), qv(nv * st, 0.0), c1(3 * st, 0.0), c2(3 * st, 0.0);
     for (const auto& c : chunks) {
       for (std::size_t k = 0; k < ql.size(); ++k) ql[k] += c.ql[k];
       for (std::size_t k = 0; k < qv.size(); ++k) qv[k] += c.qv[k];
@@ -226,22 +286,22 @@ EmResult fit_em(const SampleSet& s, ProductMixture& mix, const EmConfig& config,
         s2[m][n] += q * d * d;
       };
       for (std::size_t p = 0; p < pixels; ++p) {
-        const double q = qp[p * m_count + m];
+        const double q = qp[p * st + m];
         s0[m] += q;
         add(0, q, double(p % std::size_t(s.width)));
         add(1, q, double(p / std::size_t(s.width)));
       }
       for (std::size_t l = 0; l < ni; ++l) {
-        add(2, ql[l * m_count + m], s.light_ab[l][0]);
-        add(3, ql[l * m_count + m], s.light_ab[l][1]);
+        add(2, ql[l * st + m], s.light_ab[l][0]);
+        add(3, ql[l * st + m], s.light_ab[l][1]);
       }
       for (std::size_t v = 0; v < nv; ++v) {
-        add(4, qv[v * m_count + m], s.view_ab[v][0]);
-        add(5, qv[v * m_count + m], s.view_ab[v][1]);
+        add(4, qv[v * st + m], s.view_ab[v][0]);
+        add(5, qv[v * st + m], s.view_ab[v][1]);
       }
       for (int c = 0; c < 3; ++c) {
-        s1[m][6 + c] = c1[c * m_count + m];
-        s2[m][6 + c] = c2[c * m_count + m];
+        s1[m][6 + c] = c1[c * st + m];
+        s2[m][6 + c] = c2[c * st + m];
       }
     }
     result.dropped += detail::m_step(mix, s0, s1, s2, double(s.size()), config.variance_floor,
