@@ -31,7 +31,7 @@ struct Options {
 };
 
 struct Result {
-  double seconds = 0, log_likelihood = 0;
+  double seconds = 0, log_likelihood = 0, cpu_seconds = 0;
   long peak_kib = 0;
   bool ok = false;
 };
@@ -52,8 +52,7 @@ btfgmm::SampleSet samples(const Options& o) {
 }
 
 double now() {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch())
-      .count();
+  return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
 }
 
 Result run_ours(const Options& o) {
@@ -122,6 +121,7 @@ Result in_child(F f) {
   struct rusage ru {};
   wait4(pid, &status, 0, &ru);
   r.peak_kib = ru.ru_maxrss;
+  r.cpu_seconds = double(ru.ru_utime.tv_sec) + 1e-6 * double(ru.ru_utime.tv_usec);
   return r;
 }
 
@@ -132,12 +132,18 @@ int main(int argc, char** argv) {
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     auto next = [&] { return i + 1 < argc ? std::atol(argv[++i]) : 0L; };
-    if (a == "--size") o.size = int(next());
-    else if (a == "--tile") o.tile = int(next());
-    else if (a == "--components") o.components = std::size_t(next());
-    else if (a == "--iterations") o.iterations = int(next());
-    else if (a == "--threads") o.threads = int(next());
-    else if (a == "--no-peer") o.peer = false;
+    if (a == "--size")
+      o.size = int(next());
+    else if (a == "--tile")
+      o.tile = int(next());
+    else if (a == "--components")
+      o.components = std::size_t(next());
+    else if (a == "--iterations")
+      o.iterations = int(next());
+    else if (a == "--threads")
+      o.threads = int(next());
+    else if (a == "--no-peer")
+      o.peer = false;
     else {
       std::fprintf(stderr,
                    "usage: bench_fit [--size S] [--tile T] [--components M] [--iterations K] "
@@ -148,23 +154,27 @@ int main(int argc, char** argv) {
   if (o.tile > o.size) o.size = o.tile;
   const double n = double(o.tile) * o.tile * 81 * 81;
   const double pairs = n * double(o.components) * o.iterations;
-  std::printf("EM fit: %d x %d tile of a generated corduroy BTF, 81 x 81 directions, N = %.0f "
-              "samples, M = %zu, %d iterations, same starting parameters\n\n",
-              o.tile, o.tile, n, o.components, o.iterations);
-  std::printf("| implementation | seconds | ns / (sample x component x iteration) | mean "
-              "log-likelihood | peak memory |\n|---|---|---|---|---|\n");
+  std::printf(
+      "EM fit: %d x %d tile of a generated corduroy BTF, 81 x 81 directions, N = %.0f "
+      "samples, M = %zu, %d iterations, same starting parameters\n\n",
+      o.tile, o.tile, n, o.components, o.iterations);
+  std::printf(
+      "| implementation | seconds | ns / (sample x component x iteration) | mean "
+      "log-likelihood | peak memory |\n|---|---|---|---|---|\n");
   const Result ours = in_child([&] { return run_ours(o); });
-  std::printf("| btfgmm fit_em | %.2f | %.3f | %.6f | %.0f MiB |\n", ours.seconds,
-              ours.seconds / pairs * 1e9, ours.log_likelihood, ours.peak_kib / 1024.0);
+  std::printf("| btfgmm fit_em | %.2f | %.3f | %.6f | %.0f MiB | cpu %.2f s |\n", ours.seconds,
+              ours.seconds / pairs * 1e9, ours.log_likelihood, ours.peak_kib / 1024.0,
+              ours.cpu_seconds);
   std::fflush(stdout);
   if (o.peer) {
     const Result peer = in_child([&] { return run_armadillo(o); });
     std::printf("| Armadillo %s gmm_diag | %.2f | %.3f | %.6f | %.0f MiB |\n",
-                arma::arma_version::as_string().c_str(), peer.seconds,
-                peer.seconds / pairs * 1e9, peer.log_likelihood, peer.peak_kib / 1024.0);
-    std::printf("\nbtfgmm is %.1fx faster than Armadillo per sample x component x iteration "
-                "(log-likelihood difference %.2e)\n",
-                peer.seconds / ours.seconds, ours.log_likelihood - peer.log_likelihood);
+                arma::arma_version::as_string().c_str(), peer.seconds, peer.seconds / pairs * 1e9,
+                peer.log_likelihood, peer.peak_kib / 1024.0);
+    std::printf(
+        "\nbtfgmm is %.1fx faster than Armadillo per sample x component x iteration "
+        "(log-likelihood difference %.2e)\n",
+        peer.seconds / ours.seconds, ours.log_likelihood - peer.log_likelihood);
   }
   return ours.ok ? 0 : 1;
 }

@@ -16,12 +16,16 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdint>
 #include <exception>
 #include <numbers>
 
 #include "btfgmm/error.hpp"
 #include "btfgmm/model.hpp"
 #include "fast_exp.hpp"
+#if defined(__AVX512F__)
+#include "em_avx512.hpp"
+#endif
 #include "mixture_internal.hpp"
 
 namespace btfgmm {
@@ -35,45 +39,90 @@ constexpr std::size_t kLanes = 16;
 constexpr float kAbsent = -1e30f;
 
 struct Tables {
-  std::size_t m = 0, stride = 0;             // components, padded count
-  std::vector<float> s, l, v;                // P x stride, ni x stride, nv x stride
-  std::vector<float> mu, neg_half_inv_var;   // 3 x stride each (colour)
+  std::size_t m = 0, stride = 0;            // components, padded count
+  std::vector<std::size_t> order;           // table column k holds component order[k]
+  float skip_margin = 0;                    // Delta of the chunk skip (group_pass)
+  std::vector<float> s, l, v;               // P x stride, ni x stride, nv x stride
+  std::vector<float> mu, neg_half_inv_var;  // 3 x stride each (colour)
 };
+
+// Spreads the bits of a 4-bit number to every fourth bit (for a 4-D Morton key).
+std::uint32_t spread4(std::uint32_t v) {
+  std::uint32_t r = 0;
+  for (int b = 0; b < 4; ++b) r |= ((v >> b) & 1u) << (4 * b);
+  return r;
+}
+
+// Components in the order of a Morton key of their means in (x, y, alpha_i, beta_i), so that
+// the components that matter to one (pixel, light) block tend to share vectors of kLanes and
+// the chunk skip of group_pass skips whole vectors. The order changes nothing but float
+// summation order; it is a function of the parameters alone.
+std::vector<std::size_t> block_order(const SampleSet& s, const ProductMixture& mix) {
+  std::array<double, 4> lo{}, hi{};
+  lo = {0.0, 0.0, 1e300, 1e300};
+  hi = {double(s.width - 1), double(s.height - 1), -1e300, -1e300};
+  for (const auto& ab : s.light_ab)
+    for (int k = 0; k < 2; ++k) {
+      lo[2 + k] = std::min(lo[2 + k], ab[k]);
+      hi[2 + k] = std::max(hi[2 + k], ab[k]);
+    }
+  std::vector<std::pair<std::uint32_t, std::size_t>> key(mix.size());
+  for (std::size_t m = 0; m < mix.size(); ++m) {
+    std::uint32_t k = 0;
+    for (int n = 0; n < 4; ++n) {
+      const double span = hi[n] - lo[n];
+      const double u = span > 0 ? (mix.mean[m][n] - lo[n]) / span : 0.0;
+      k |= spread4(std::uint32_t(std::clamp(u, 0.0, 0.9999) * 16.0)) << n;
+    }
+    key[m] = {k, m};
+  }
+  std::sort(key.begin(), key.end());
+  std::vector<std::size_t> order(mix.size());
+  for (std::size_t k = 0; k < key.size(); ++k) order[k] = key[k].second;
+  return order;
+}
 
 Tables make_tables(const SampleSet& s, const ProductMixture& mix) {
   Tables t;
   const std::size_t m_count = t.m = mix.size();
   const std::size_t st = t.stride = (m_count + kLanes - 1) / kLanes * kLanes;
+  t.order = block_order(s, mix);
+  // A component whose log density is below the sample's maximum by more than this has
+  // q < e^-Delta; all of them together change the sum by less than M e^-Delta = e^-17.5
+  // relative, below float's resolution (2^-24 = e^-16.6).
+  t.skip_margin = float(std::log(double(m_count)) + 17.5);
   t.s.assign(s.pixels() * st, kAbsent);
   t.l.assign(s.lights * st, 0.0f);
   t.v.assign(s.views * st, 0.0f);
   t.mu.assign(3 * st, 0.0f);
   t.neg_half_inv_var.assign(3 * st, 0.0f);
   std::vector<double> base(m_count);
-  for (std::size_t m = 0; m < m_count; ++m) {
+  for (std::size_t k = 0; k < m_count; ++k) {
+    const std::size_t m = t.order[k];
     double b = std::log(mix.weight[m]) - 0.5 * kVariables * std::log(2.0 * std::numbers::pi);
     for (int n = 0; n < kVariables; ++n) b -= 0.5 * std::log(mix.var[m][n]);
-    base[m] = b;
+    base[k] = b;
     for (int c = 0; c < 3; ++c) {
-      t.mu[c * st + m] = float(mix.mean[m][6 + c]);
-      t.neg_half_inv_var[c * st + m] = float(-0.5 / mix.var[m][6 + c]);
+      t.mu[c * st + k] = float(mix.mean[m][6 + c]);
+      t.neg_half_inv_var[c * st + k] = float(-0.5 / mix.var[m][6 + c]);
     }
   }
-  auto gauss = [&](std::size_t m, int n, double x) {
+  auto gauss = [&](std::size_t k, int n, double x) {
+    const std::size_t m = t.order[k];
     const double d = x - mix.mean[m][n];
     return -0.5 * d * d / mix.var[m][n];
   };
   for (std::size_t p = 0; p < s.pixels(); ++p) {
     const double x = double(p % std::size_t(s.width)), y = double(p / std::size_t(s.width));
-    for (std::size_t m = 0; m < m_count; ++m)
-      t.s[p * st + m] = float(base[m] + gauss(m, 0, x) + gauss(m, 1, y));
+    for (std::size_t k = 0; k < m_count; ++k)
+      t.s[p * st + k] = float(base[k] + gauss(k, 0, x) + gauss(k, 1, y));
   }
   for (std::size_t l = 0; l < s.lights; ++l)
-    for (std::size_t m = 0; m < m_count; ++m)
-      t.l[l * st + m] = float(gauss(m, 2, s.light_ab[l][0]) + gauss(m, 3, s.light_ab[l][1]));
+    for (std::size_t k = 0; k < m_count; ++k)
+      t.l[l * st + k] = float(gauss(k, 2, s.light_ab[l][0]) + gauss(k, 3, s.light_ab[l][1]));
   for (std::size_t v = 0; v < s.views; ++v)
-    for (std::size_t m = 0; m < m_count; ++m)
-      t.v[v * st + m] = float(gauss(m, 4, s.view_ab[v][0]) + gauss(m, 5, s.view_ab[v][1]));
+    for (std::size_t k = 0; k < m_count; ++k)
+      t.v[v * st + k] = float(gauss(k, 4, s.view_ab[v][0]) + gauss(k, 5, s.view_ab[v][1]));
   return t;
 }
 
@@ -83,10 +132,17 @@ struct ChunkStats {
 
 // Per-thread work space of the E pass.
 struct Workspace {
-  std::vector<float> sl, t, a0, a1, a2, qv;
+  std::vector<float> sl, t, a0, a1, a2, qv, cmax;
+  std::vector<std::uint8_t> live;
   explicit Workspace(std::size_t stride, std::size_t views, int group)
-      : sl(stride), t(std::size_t(group) * stride), a0(stride), a1(3 * stride), a2(3 * stride),
-        qv(views * stride) {}
+      : sl(stride),
+        t(std::size_t(group) * stride),
+        a0(stride),
+        a1(3 * stride),
+        a2(3 * stride),
+        qv(views * stride),
+        cmax(std::size_t(group) * (stride / kLanes)),
+        live(stride / kLanes) {}
 };
 
 // G samples of one (pixel, light) block: views v0 .. v0 + G - 1. Eq. (3)-(4) for each sample,
@@ -94,8 +150,8 @@ struct Workspace {
 // a0 += sum q, a1 += sum q d, a2 += sum q d^2 (d = colour - mean), qv[view] += q. The G samples
 // share every load of a component's parameters.
 template <int G>
-double group_pass(const Tables& t, const SampleSet& s, std::size_t p, std::size_t l,
-                  std::size_t v0, Workspace& w, bool stats) {
+double group_pass(const Tables& t, const SampleSet& s, std::size_t p, std::size_t l, std::size_t v0,
+                  Workspace& w, bool stats) {
   const std::size_t st = t.stride;
   const float* __restrict sl = w.sl.data();
   const float* __restrict mu0 = t.mu.data();
@@ -116,7 +172,8 @@ double group_pass(const Tables& t, const SampleSet& s, std::size_t p, std::size_
     tt[g] = &w.t[std::size_t(g) * st];
   }
   // log w_m F(x | m) for the G samples (the per-pixel, per-light and per-view parts from the
-  // tables, the colour terms here).
+  // tables, the colour terms here), with the maximum of every vector of kLanes components.
+  const std::size_t chunks = st / kLanes;
 #pragma omp simd
   for (std::size_t m = 0; m < st; ++m) {
     const float base = sl[m], m0 = mu0[m], m1 = mu1[m], m2 = mu2[m];
@@ -127,18 +184,44 @@ double group_pass(const Tables& t, const SampleSet& s, std::size_t p, std::size_
       tt[g][m] = base + vrow[g][m] + k0 * d0 * d0 + k1 * d1 * d1 + k2 * d2 * d2;
     }
   }
+  float* __restrict cmax = w.cmax.data();  // G x chunks
+  for (int g = 0; g < G; ++g)
+    for (std::size_t j = 0; j < chunks; ++j) {
+      float cm = -INFINITY;
+#pragma omp simd reduction(max : cm)
+      for (std::size_t m = j * kLanes; m < (j + 1) * kLanes; ++m)
+        cm = tt[g][m] > cm ? tt[g][m] : cm;
+      cmax[std::size_t(g) * chunks + j] = cm;
+    }
+  float mx[G];
+  for (int g = 0; g < G; ++g) {
+    mx[g] = -INFINITY;
+    for (std::size_t j = 0; j < chunks; ++j)
+      mx[g] = std::max(mx[g], cmax[std::size_t(g) * chunks + j]);
+  }
+  // A vector of components whose log densities are all below every sample's maximum by more
+  // than the margin holds only responsibilities below e^-margin (make_tables): skipped.
+  std::uint8_t* __restrict live = w.live.data();
+  for (std::size_t j = 0; j < chunks; ++j) {
+    bool any = false;
+    for (int g = 0; g < G; ++g)
+      any = any || cmax[std::size_t(g) * chunks + j] >= mx[g] - t.skip_margin;
+    live[j] = any;
+  }
   // Eq. (4) by log-sum-exp, and Eq. (3).
   double ll = 0.0;
   float inv[G];
   for (int g = 0; g < G; ++g) {
     float* __restrict x = tt[g];
-    float mx = -INFINITY;
-#pragma omp simd reduction(max : mx)
-    for (std::size_t m = 0; m < st; ++m) mx = x[m] > mx ? x[m] : mx;
+    const float top = mx[g];
     float sum = 0.0f;
+    for (std::size_t j = 0; j < chunks; ++j) {
+      if (!live[j]) continue;
 #pragma omp simd reduction(+ : sum)
-    for (std::size_t m = 0; m < st; ++m) sum += (x[m] = detail::fast_exp(x[m] - mx));
-    ll += double(mx) + std::log(double(sum));
+      for (std::size_t m = j * kLanes; m < (j + 1) * kLanes; ++m)
+        sum += (x[m] = detail::fast_exp(x[m] - top));
+    }
+    ll += double(top) + std::log(double(sum));
     inv[g] = 1.0f / sum;
   }
   if (!stats) return ll;
@@ -147,31 +230,34 @@ double group_pass(const Tables& t, const SampleSet& s, std::size_t p, std::size_
   float* __restrict a2 = w.a2.data();
   float* __restrict qv[G];
   for (int g = 0; g < G; ++g) qv[g] = &w.qv[(v0 + std::size_t(g)) * st];
+  for (std::size_t j = 0; j < chunks; ++j) {
+    if (!live[j]) continue;
 #pragma omp simd
-  for (std::size_t m = 0; m < st; ++m) {
-    const float m0 = mu0[m], m1 = mu1[m], m2 = mu2[m];
-    float s0 = 0, s1a = 0, s1b = 0, s1c = 0, s2a = 0, s2b = 0, s2c = 0;
+    for (std::size_t m = j * kLanes; m < (j + 1) * kLanes; ++m) {
+      const float m0 = mu0[m], m1 = mu1[m], m2 = mu2[m];
+      float s0 = 0, s1a = 0, s1b = 0, s1c = 0, s2a = 0, s2b = 0, s2c = 0;
 #pragma GCC unroll 8
-    for (int g = 0; g < G; ++g) {
-      const float q = tt[g][m] * inv[g];
-      const float d0 = r[g][0] - m0, d1 = r[g][1] - m1, d2 = r[g][2] - m2;
-      const float q0 = q * d0, q1 = q * d1, q2 = q * d2;
-      s0 += q;
-      s1a += q0;
-      s1b += q1;
-      s1c += q2;
-      s2a += q0 * d0;
-      s2b += q1 * d1;
-      s2c += q2 * d2;
-      qv[g][m] += q;
+      for (int g = 0; g < G; ++g) {
+        const float q = tt[g][m] * inv[g];
+        const float d0 = r[g][0] - m0, d1 = r[g][1] - m1, d2 = r[g][2] - m2;
+        const float q0 = q * d0, q1 = q * d1, q2 = q * d2;
+        s0 += q;
+        s1a += q0;
+        s1b += q1;
+        s1c += q2;
+        s2a += q0 * d0;
+        s2b += q1 * d1;
+        s2c += q2 * d2;
+        qv[g][m] += q;
+      }
+      a0[m] += s0;
+      a1[m] += s1a;
+      a1[st + m] += s1b;
+      a1[2 * st + m] += s1c;
+      a2[m] += s2a;
+      a2[st + m] += s2b;
+      a2[2 * st + m] += s2c;
     }
-    a0[m] += s0;
-    a1[m] += s1a;
-    a1[st + m] += s1b;
-    a1[2 * st + m] += s1c;
-    a2[m] += s2a;
-    a2[st + m] += s2b;
-    a2[2 * st + m] += s2c;
   }
   return ll;
 }
@@ -208,6 +294,22 @@ double e_pass(const SampleSet& s, const Tables& t, int threads, std::vector<doub
               std::fill(w.a2.begin(), w.a2.end(), 0.0f);
             }
             std::size_t v = 0;
+#if defined(__AVX512F__)
+            for (; v + 4 <= nv; v += 4) {
+              const float* vrow[4];
+              float r[4][3];
+              float* qv[4];
+              for (int g = 0; g < 4; ++g) {
+                vrow[g] = &t.v[(v + std::size_t(g)) * st];
+                const float* rr = &s.residual[s.index(p, l, v + std::size_t(g)) * 3];
+                for (int k = 0; k < 3; ++k) r[g][k] = rr[k];
+                qv[g] = &w.qv[(v + std::size_t(g)) * st];
+              }
+              ll += detail::group_pass4_avx512(
+                  st, w.sl.data(), t.mu.data(), t.neg_half_inv_var.data(), vrow, r, w.t.data(),
+                  w.live.data(), t.skip_margin, want, w.a0.data(), w.a1.data(), w.a2.data(), qv);
+            }
+#endif
             for (; v + kGroup <= nv; v += kGroup) ll += group_pass<kGroup>(t, s, p, l, v, w, want);
             for (; v < nv; ++v) ll += group_pass<1>(t, s, p, l, v, w, want);
             if (!want) continue;
@@ -276,7 +378,8 @@ EmResult fit_em(const SampleSet& s, ProductMixture& mix, const EmConfig& config,
     // q (x - mu_old), q (x - mu_old)^2 for each variable.
     std::vector<double> s0(m_count, 0.0);
     std::vector<std::array<double, kVariables>> s1(m_count), s2(m_count);
-    for (std::size_t m = 0; m < m_count; ++m) {
+    for (std::size_t k = 0; k < m_count; ++k) {
+      const std::size_t m = t.order[k];  // table column k holds component m
       s1[m].fill(0.0);
       s2[m].fill(0.0);
       const auto& mu = mix.mean[m];
@@ -286,22 +389,22 @@ EmResult fit_em(const SampleSet& s, ProductMixture& mix, const EmConfig& config,
         s2[m][n] += q * d * d;
       };
       for (std::size_t p = 0; p < pixels; ++p) {
-        const double q = qp[p * st + m];
+        const double q = qp[p * st + k];
         s0[m] += q;
         add(0, q, double(p % std::size_t(s.width)));
         add(1, q, double(p / std::size_t(s.width)));
       }
       for (std::size_t l = 0; l < ni; ++l) {
-        add(2, ql[l * st + m], s.light_ab[l][0]);
-        add(3, ql[l * st + m], s.light_ab[l][1]);
+        add(2, ql[l * st + k], s.light_ab[l][0]);
+        add(3, ql[l * st + k], s.light_ab[l][1]);
       }
       for (std::size_t v = 0; v < nv; ++v) {
-        add(4, qv[v * st + m], s.view_ab[v][0]);
-        add(5, qv[v * st + m], s.view_ab[v][1]);
+        add(4, qv[v * st + k], s.view_ab[v][0]);
+        add(5, qv[v * st + k], s.view_ab[v][1]);
       }
       for (int c = 0; c < 3; ++c) {
-        s1[m][6 + c] = c1[c * st + m];
-        s2[m][6 + c] = c2[c * st + m];
+        s1[m][6 + c] = c1[c * st + k];
+        s2[m][6 + c] = c2[c * st + k];
       }
     }
     result.dropped += detail::m_step(mix, s0, s1, s2, double(s.size()), config.variance_floor,

@@ -11,6 +11,9 @@
 #include "btfgmm/btfgmm.hpp"
 #include "btfgmm/model.hpp"
 #include "fast_exp.hpp"
+#if defined(__AVX512F__)
+#include "em_avx512.hpp"
+#endif
 
 #include <zlib.h>
 #include <cstring>
@@ -29,6 +32,25 @@ TEST(FastExp, RelativeErrorWithinThreeUlp) {
   EXPECT_EQ(detail::fast_exp(-200.0f), 0.0f);
   EXPECT_EQ(detail::fast_exp(0.0f), 1.0f);
 }
+
+#if defined(__AVX512F__)
+TEST(FastExp, SixteenLanesWithinThreeUlp) {
+  double worst = 0;
+  for (float x0 = -87.0f; x0 <= 0.0f; x0 += 16 * 0.000731f) {
+    alignas(64) float in[16], out[16];
+    for (int i = 0; i < 16; ++i) in[i] = x0 + float(i) * 0.000731f;
+    _mm512_store_ps(out, detail::fast_exp16(_mm512_load_ps(in)));
+    for (int i = 0; i < 16; ++i) {
+      const double exact = std::exp(double(in[i]));
+      worst = std::max(worst, std::abs(double(out[i]) - exact) / exact);
+    }
+  }
+  EXPECT_LT(worst, 3.0 * 5.96e-8) << "worst relative error " << worst;
+  alignas(64) float out[16];
+  _mm512_store_ps(out, detail::fast_exp16(_mm512_set1_ps(-300.0f)));
+  EXPECT_EQ(out[0], 0.0f);
+}
+#endif
 
 // A known 9-D product mixture, well separated.
 ProductMixture known_mixture() {

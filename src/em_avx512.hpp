@@ -1,0 +1,158 @@
+// The E pass of a group of four samples with AVX-512 intrinsics (em.cpp's group_pass, the
+// same arithmetic): the compiler does not keep the per-vector skip test and the running sums
+// in registers on its own. Included by em.cpp only where __AVX512F__ is defined.
+#pragma once
+
+// GCC 12's AVX-512 headers trip -Wmaybe-uninitialized on their own _mm512_undefined_ps.
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wuninitialized"
+#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
+#include <immintrin.h>
+
+#include <cmath>
+#include <cstddef>
+#include <cstdint>
+
+namespace btfgmm::detail {
+
+// fast_exp (fast_exp.hpp) on 16 lanes: the same reduction and polynomial, 2^n by scalef.
+inline __m512 fast_exp16(__m512 x) {
+  const __m512 lo = _mm512_set1_ps(-87.3f), hi = _mm512_set1_ps(88.0f);
+  const __mmask16 under = _mm512_cmp_ps_mask(x, lo, _CMP_LT_OQ);
+  x = _mm512_min_ps(_mm512_max_ps(x, lo), hi);
+  const __m512 n = _mm512_roundscale_ps(_mm512_mul_ps(x, _mm512_set1_ps(1.44269504088896341f)),
+                                        _MM_FROUND_TO_NEAREST_INT | _MM_FROUND_NO_EXC);
+  __m512 r = _mm512_fnmadd_ps(n, _mm512_set1_ps(0.693359375f), x);
+  r = _mm512_fnmadd_ps(n, _mm512_set1_ps(-2.12194440e-4f), r);
+  __m512 p = _mm512_set1_ps(1.9875691500e-4f);
+  p = _mm512_fmadd_ps(p, r, _mm512_set1_ps(1.3981999507e-3f));
+  p = _mm512_fmadd_ps(p, r, _mm512_set1_ps(8.3334519073e-3f));
+  p = _mm512_fmadd_ps(p, r, _mm512_set1_ps(4.1665795894e-2f));
+  p = _mm512_fmadd_ps(p, r, _mm512_set1_ps(1.6666665459e-1f));
+  p = _mm512_fmadd_ps(p, r, _mm512_set1_ps(5.0000001201e-1f));
+  p = _mm512_fmadd_ps(p, _mm512_mul_ps(r, r), r);
+  p = _mm512_add_ps(p, _mm512_set1_ps(1.0f));
+  return _mm512_maskz_mov_ps(static_cast<__mmask16>(~under), _mm512_scalef_ps(p, n));
+}
+
+// Horizontal max and sum through memory (GCC 12's _mm512_reduce_* trip -Wuninitialized).
+inline float hmax16(__m512 v) {
+  alignas(64) float b[16];
+  _mm512_store_ps(b, v);
+  float m = b[0];
+  for (int i = 1; i < 16; ++i) m = b[i] > m ? b[i] : m;
+  return m;
+}
+inline float hsum16(__m512 v) {
+  alignas(64) float b[16];
+  _mm512_store_ps(b, v);
+  float s = 0.0f;
+  for (int i = 0; i < 16; ++i) s += b[i];
+  return s;
+}
+
+// Four samples (views v0..v0+3 of one pixel and light). sl: the pixel + light table row;
+// vrow[g]: the view table rows; r[g]: residual colours; tt: 4 x st scratch; margin: the skip
+// margin; accumulators a0 (st), a1, a2 (3 st), qv[g] (st each). Returns the sum of the four
+// samples' log-likelihoods. live: chunks bytes of scratch.
+inline double group_pass4_avx512(std::size_t st, const float* sl, const float* mu, const float* h,
+                                 const float* const vrow[4], const float r[4][3], float* tt,
+                                 std::uint8_t* live, float margin, bool stats, float* a0, float* a1,
+                                 float* a2, float* const qv[4]) {
+  const std::size_t chunks = st / 16;
+  __m512 rv[4][3];
+  __m512 mxv[4];
+  for (int g = 0; g < 4; ++g) {
+    for (int c = 0; c < 3; ++c) rv[g][c] = _mm512_set1_ps(r[g][c]);
+    mxv[g] = _mm512_set1_ps(-INFINITY);
+  }
+  // log w_m F(x | m), and each sample's maximum.
+  for (std::size_t j = 0; j < chunks; ++j) {
+    const std::size_t o = j * 16;
+    const __m512 base = _mm512_loadu_ps(sl + o);
+    const __m512 m0 = _mm512_loadu_ps(mu + o), m1 = _mm512_loadu_ps(mu + st + o),
+                 m2 = _mm512_loadu_ps(mu + 2 * st + o);
+    const __m512 k0 = _mm512_loadu_ps(h + o), k1 = _mm512_loadu_ps(h + st + o),
+                 k2 = _mm512_loadu_ps(h + 2 * st + o);
+    for (int g = 0; g < 4; ++g) {
+      const __m512 d0 = _mm512_sub_ps(rv[g][0], m0), d1 = _mm512_sub_ps(rv[g][1], m1),
+                   d2 = _mm512_sub_ps(rv[g][2], m2);
+      __m512 x = _mm512_add_ps(base, _mm512_loadu_ps(vrow[g] + o));
+      x = _mm512_fmadd_ps(_mm512_mul_ps(k0, d0), d0, x);
+      x = _mm512_fmadd_ps(_mm512_mul_ps(k1, d1), d1, x);
+      x = _mm512_fmadd_ps(_mm512_mul_ps(k2, d2), d2, x);
+      _mm512_storeu_ps(tt + std::size_t(g) * st + o, x);
+      mxv[g] = _mm512_max_ps(mxv[g], x);
+    }
+  }
+  float mx[4];
+  __m512 mxb[4], thr[4], sum[4];
+  for (int g = 0; g < 4; ++g) {
+    mx[g] = hmax16(mxv[g]);
+    mxb[g] = _mm512_set1_ps(mx[g]);
+    thr[g] = _mm512_set1_ps(mx[g] - margin);
+    sum[g] = _mm512_setzero_ps();
+  }
+  // exp(t - max) where any of the four samples has a responsibility above e^-margin; the
+  // other vectors are skipped here and below (their tt is left as it was).
+  for (std::size_t j = 0; j < chunks; ++j) {
+    const std::size_t o = j * 16;
+    __m512 x[4];
+    __mmask16 any = 0;
+    for (int g = 0; g < 4; ++g) {
+      x[g] = _mm512_loadu_ps(tt + std::size_t(g) * st + o);
+      any |= _mm512_cmp_ps_mask(x[g], thr[g], _CMP_GE_OQ);
+    }
+    live[j] = any != 0;
+    if (!any) continue;
+    for (int g = 0; g < 4; ++g) {
+      const __m512 e = fast_exp16(_mm512_sub_ps(x[g], mxb[g]));
+      _mm512_storeu_ps(tt + std::size_t(g) * st + o, e);
+      sum[g] = _mm512_add_ps(sum[g], e);
+    }
+  }
+  double ll = 0.0;
+  __m512 inv[4];
+  for (int g = 0; g < 4; ++g) {
+    const float s = hsum16(sum[g]);
+    ll += double(mx[g]) + std::log(double(s));
+    inv[g] = _mm512_set1_ps(1.0f / s);
+  }
+  if (!stats) return ll;
+  for (std::size_t j = 0; j < chunks; ++j) {
+    if (!live[j]) continue;
+    const std::size_t o = j * 16;
+    const __m512 m0 = _mm512_loadu_ps(mu + o), m1 = _mm512_loadu_ps(mu + st + o),
+                 m2 = _mm512_loadu_ps(mu + 2 * st + o);
+    __m512 s0 = _mm512_setzero_ps(), s1a = s0, s1b = s0, s1c = s0, s2a = s0, s2b = s0, s2c = s0;
+    for (int g = 0; g < 4; ++g) {
+      const __m512 q = _mm512_mul_ps(_mm512_loadu_ps(tt + std::size_t(g) * st + o), inv[g]);
+      const __m512 d0 = _mm512_sub_ps(rv[g][0], m0), d1 = _mm512_sub_ps(rv[g][1], m1),
+                   d2 = _mm512_sub_ps(rv[g][2], m2);
+      const __m512 q0 = _mm512_mul_ps(q, d0), q1 = _mm512_mul_ps(q, d1), q2 = _mm512_mul_ps(q, d2);
+      s0 = _mm512_add_ps(s0, q);
+      s1a = _mm512_add_ps(s1a, q0);
+      s1b = _mm512_add_ps(s1b, q1);
+      s1c = _mm512_add_ps(s1c, q2);
+      s2a = _mm512_fmadd_ps(q0, d0, s2a);
+      s2b = _mm512_fmadd_ps(q1, d1, s2b);
+      s2c = _mm512_fmadd_ps(q2, d2, s2c);
+      _mm512_storeu_ps(qv[g] + o, _mm512_add_ps(_mm512_loadu_ps(qv[g] + o), q));
+    }
+    auto acc = [](float* p, __m512 v) {
+      _mm512_storeu_ps(p, _mm512_add_ps(_mm512_loadu_ps(p), v));
+    };
+    acc(a0 + o, s0);
+    acc(a1 + o, s1a);
+    acc(a1 + st + o, s1b);
+    acc(a1 + 2 * st + o, s1c);
+    acc(a2 + o, s2a);
+    acc(a2 + st + o, s2b);
+    acc(a2 + 2 * st + o, s2c);
+  }
+  return ll;
+}
+
+}  // namespace btfgmm::detail
+
+#pragma GCC diagnostic pop
