@@ -46,33 +46,28 @@ struct Tables {
   std::vector<float> mu, neg_half_inv_var;  // 3 x stride each (colour)
 };
 
-// Spreads the bits of a 4-bit number to every fourth bit (for a 4-D Morton key).
-std::uint32_t spread4(std::uint32_t v) {
-  std::uint32_t r = 0;
-  for (int b = 0; b < 4; ++b) r |= ((v >> b) & 1u) << (4 * b);
-  return r;
-}
-
-// Components in the order of a Morton key of their means in (x, y, alpha_i, beta_i), so that
-// the components that matter to one (pixel, light) block tend to share vectors of kLanes and
-// the chunk skip of group_pass skips whole vectors. The order changes nothing but float
-// summation order; it is a function of the parameters alone.
-std::vector<std::size_t> block_order(const SampleSet& s, const ProductMixture& mix) {
-  std::array<double, 4> lo{}, hi{};
-  lo = {0.0, 0.0, 1e300, 1e300};
-  hi = {double(s.width - 1), double(s.height - 1), -1e300, -1e300};
-  for (const auto& ab : s.light_ab)
-    for (int k = 0; k < 2; ++k) {
-      lo[2 + k] = std::min(lo[2 + k], ab[k]);
-      hi[2 + k] = std::max(hi[2 + k], ab[k]);
+// Components in the order of a Morton key of their colour means (r, g, b): a sample's
+// responsibilities concentrate on the components whose colour is near its own, so with this
+// order they share vectors of kLanes and the skip of group_pass drops whole vectors (about
+// 1/3 of the vectors stay live on generated data, against 4/5 in fit order and 3/5 ordered
+// by x, y and the light). The order changes nothing but float summation order; it is a
+// function of the parameters alone.
+std::vector<std::size_t> block_order(const ProductMixture& mix) {
+  constexpr int kBits = 10;
+  std::array<double, 3> lo{1e300, 1e300, 1e300}, hi{-1e300, -1e300, -1e300};
+  for (const auto& mu : mix.mean)
+    for (int c = 0; c < 3; ++c) {
+      lo[c] = std::min(lo[c], mu[6 + c]);
+      hi[c] = std::max(hi[c], mu[6 + c]);
     }
   std::vector<std::pair<std::uint32_t, std::size_t>> key(mix.size());
   for (std::size_t m = 0; m < mix.size(); ++m) {
     std::uint32_t k = 0;
-    for (int n = 0; n < 4; ++n) {
-      const double span = hi[n] - lo[n];
-      const double u = span > 0 ? (mix.mean[m][n] - lo[n]) / span : 0.0;
-      k |= spread4(std::uint32_t(std::clamp(u, 0.0, 0.9999) * 16.0)) << n;
+    for (int c = 0; c < 3; ++c) {
+      const double span = hi[c] - lo[c];
+      const double u = span > 0 ? (mix.mean[m][6 + c] - lo[c]) / span : 0.0;
+      const auto q = std::uint32_t(std::clamp(u, 0.0, 0.9999) * double(1 << kBits));
+      for (int bit = 0; bit < kBits; ++bit) k |= ((q >> bit) & 1u) << (3 * bit + c);
     }
     key[m] = {k, m};
   }
@@ -86,7 +81,7 @@ Tables make_tables(const SampleSet& s, const ProductMixture& mix) {
   Tables t;
   const std::size_t m_count = t.m = mix.size();
   const std::size_t st = t.stride = (m_count + kLanes - 1) / kLanes * kLanes;
-  t.order = block_order(s, mix);
+  t.order = block_order(mix);
   // A component whose log density is below the sample's maximum by more than this has
   // q < e^-Delta; all of them together change the sum by less than M e^-Delta = e^-17.5
   // relative, below float's resolution (2^-24 = e^-16.6).

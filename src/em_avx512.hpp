@@ -153,6 +153,38 @@ inline double group_pass4_avx512(std::size_t st, const float* sl, const float* m
   return ll;
 }
 
+// Eq. (8)-(11) for one prediction over st (padded) components: t = a + b (the log
+// conditional weights, Eq. 9-10, from two table rows), then sum_m W_m mu_m / sum_m W_m for the
+// three colours. Vectors whose t are all below the maximum by more than `margin` add less than
+// float resolution and are skipped. tt: st floats of scratch.
+inline void conditional_colour16(std::size_t st, const float* a, const float* b, const float* mu,
+                                 float* tt, float margin, float out[3]) {
+  const std::size_t chunks = st / 16;
+  __m512 mxv = _mm512_set1_ps(-INFINITY);
+  for (std::size_t j = 0; j < chunks; ++j) {
+    const __m512 x = _mm512_add_ps(_mm512_loadu_ps(a + j * 16), _mm512_loadu_ps(b + j * 16));
+    _mm512_storeu_ps(tt + j * 16, x);
+    mxv = _mm512_max_ps(mxv, x);
+  }
+  const float mx = hmax16(mxv);
+  const __m512 mxb = _mm512_set1_ps(mx), thr = _mm512_set1_ps(mx - margin);
+  __m512 sum = _mm512_setzero_ps(), c0 = sum, c1 = sum, c2 = sum;
+  for (std::size_t j = 0; j < chunks; ++j) {
+    const std::size_t o = j * 16;
+    const __m512 x = _mm512_loadu_ps(tt + o);
+    if (!_mm512_cmp_ps_mask(x, thr, _CMP_GE_OQ)) continue;
+    const __m512 w = fast_exp16(_mm512_sub_ps(x, mxb));
+    sum = _mm512_add_ps(sum, w);
+    c0 = _mm512_fmadd_ps(w, _mm512_loadu_ps(mu + o), c0);
+    c1 = _mm512_fmadd_ps(w, _mm512_loadu_ps(mu + st + o), c1);
+    c2 = _mm512_fmadd_ps(w, _mm512_loadu_ps(mu + 2 * st + o), c2);
+  }
+  const float inv = 1.0f / hsum16(sum);
+  out[0] = hsum16(c0) * inv;
+  out[1] = hsum16(c1) * inv;
+  out[2] = hsum16(c2) * inv;
+}
+
 }  // namespace btfgmm::detail
 
 #pragma GCC diagnostic pop

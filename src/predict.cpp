@@ -11,6 +11,9 @@
 #include "btfgmm/error.hpp"
 #include "btfgmm/model.hpp"
 #include "fast_exp.hpp"
+#if defined(__AVX512F__)
+#include "em_avx512.hpp"
+#endif
 
 namespace btfgmm {
 namespace {
@@ -133,50 +136,64 @@ Btf decode(const BtfModel& model, const DirectionSet& lights, const DirectionSet
     const double d = x - mix.mean[m][k];
     return -0.5 * d * d / mix.var[m][k];
   };
-  std::vector<float> s(tw * th * m_count), lt(lights.size() * m_count), vt(views.size() * m_count);
+  // Components padded to whole vectors of 16 (a padded component's log weight is -1e30).
+  const std::size_t st = (m_count + 15) / 16 * 16;
+  std::vector<float> s(tw * th * st, -1e30f), lt(lights.size() * st, 0.0f),
+      vt(views.size() * st, 0.0f);
   for (std::size_t p = 0; p < tw * th; ++p)
     for (std::size_t m = 0; m < m_count; ++m)
-      s[p * m_count + m] = float(base[m] + g(m, 0, double(p % tw)) + g(m, 1, double(p / tw)));
+      s[p * st + m] = float(base[m] + g(m, 0, double(p % tw)) + g(m, 1, double(p / tw)));
   for (std::size_t l = 0; l < lights.size(); ++l) {
     const OnionSlice o = to_onion_slice(lights[l]);
     for (std::size_t m = 0; m < m_count; ++m)
-      lt[l * m_count + m] = float(g(m, 2, o.alpha / u[2]) + g(m, 3, o.beta / u[3]));
+      lt[l * st + m] = float(g(m, 2, o.alpha / u[2]) + g(m, 3, o.beta / u[3]));
   }
   for (std::size_t v = 0; v < views.size(); ++v) {
     const OnionSlice o = to_onion_slice(views[v]);
     for (std::size_t m = 0; m < m_count; ++m)
-      vt[v * m_count + m] = float(g(m, 4, o.alpha / u[4]) + g(m, 5, o.beta / u[5]));
+      vt[v * st + m] = float(g(m, 4, o.alpha / u[4]) + g(m, 5, o.beta / u[5]));
   }
-  std::vector<float> mu(3 * m_count);
+  std::vector<float> mu(3 * st, 0.0f);
   for (std::size_t m = 0; m < m_count; ++m)
-    for (int c = 0; c < 3; ++c) mu[c * m_count + m] = float(mix.mean[m][6 + c]);
+    for (int c = 0; c < 3; ++c) mu[c * st + m] = float(mix.mean[m][6 + c]);
+  // Components below the maximum log weight by more than this add less than float resolution
+  // (M e^-margin = e^-17.5 relative) and are skipped a vector at a time.
+  const float margin = float(std::log(double(m_count)) + 17.5);
   const MeanBrdfInterpolator mean(model);
   const std::ptrdiff_t pairs = std::ptrdiff_t(lights.size() * views.size());
 #pragma omp parallel
   {
-    std::vector<float> lv(m_count), t(m_count), tile(tw * th * 3);
+    std::vector<float> lv(st), t(st), tile(tw * th * 3);
 #pragma omp for schedule(dynamic, 1)
     for (std::ptrdiff_t i = 0; i < pairs; ++i) {
       const std::size_t l = std::size_t(i) / views.size(), v = std::size_t(i) % views.size();
-      for (std::size_t m = 0; m < m_count; ++m) lv[m] = lt[l * m_count + m] + vt[v * m_count + m];
+      for (std::size_t m = 0; m < st; ++m) lv[m] = lt[l * st + m] + vt[v * st + m];
       const auto mb = mean.at(lights[l], views[v]);
       for (std::size_t p = 0; p < tw * th; ++p) {
-        const float* sp = &s[p * m_count];
+        float c[3];
+#if defined(__AVX512F__)
+        detail::conditional_colour16(st, &s[p * st], lv.data(), mu.data(), t.data(), margin, c);
+#else
+        const float* sp = &s[p * st];
         float mx = -INFINITY;
-#pragma omp simd reduction(max : mx)
-        for (std::size_t m = 0; m < m_count; ++m) mx = std::max(mx, t[m] = sp[m] + lv[m]);
+        for (std::size_t m = 0; m < st; ++m) mx = std::max(mx, t[m] = sp[m] + lv[m]);
         float sum = 0, c0 = 0, c1 = 0, c2 = 0;
 #pragma omp simd reduction(+ : sum, c0, c1, c2)
-        for (std::size_t m = 0; m < m_count; ++m) {
+        for (std::size_t m = 0; m < st; ++m) {
           const float w = detail::fast_exp(t[m] - mx);
           sum += w;
           c0 += w * mu[m];
-          c1 += w * mu[m_count + m];
-          c2 += w * mu[2 * m_count + m];
+          c1 += w * mu[st + m];
+          c2 += w * mu[2 * st + m];
         }
-        tile[p * 3 + 0] = float(double(c0 / sum) * u[6] + mb[0]);
-        tile[p * 3 + 1] = float(double(c1 / sum) * u[7] + mb[1]);
-        tile[p * 3 + 2] = float(double(c2 / sum) * u[8] + mb[2]);
+        c[0] = c0 / sum;
+        c[1] = c1 / sum;
+        c[2] = c2 / sum;
+        (void)margin;
+#endif
+        tile[p * 3 + 0] = float(double(c[0]) * u[6] + mb[0]);  // Eq. (11)
+        tile[p * 3 + 1] = float(double(c[1]) * u[7] + mb[1]);
+        tile[p * 3 + 2] = float(double(c[2]) * u[8] + mb[2]);
       }
       float* img = out.image(l, v);
       for (int y = 0; y < height; ++y)
