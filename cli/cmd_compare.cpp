@@ -1,0 +1,258 @@
+// btfgmm compare: models against the BTF they were fitted to, as the paper measures them
+// (RMSE, PSNR, SSIM, compression ratios), as a table, JSON, or an HTML report.
+#include <fmt/format.h>
+
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <memory>
+#include <optional>
+
+#include "btfgmm/btfgmm.hpp"
+#include "btfgmm/metrics.hpp"
+#include "btfgmm/model.hpp"
+#include "btfgmm/report.hpp"
+#include "cli_util.hpp"
+#include "commands.hpp"
+
+namespace btfgmm::cli {
+namespace {
+
+namespace fs = std::filesystem;
+
+struct CompareOptions {
+  std::string btf, report;
+  std::vector<std::string> models;
+  std::size_t worst = 3;
+  bool json = false, overwrite = false, quiet = false;
+};
+
+bool same_tile(const Tile& a, const Tile& b) {
+  return a.x == b.x && a.y == b.y && a.width == b.width && a.height == b.height;
+}
+
+std::string pair_text(const BtfModel& m, std::size_t image) {
+  const std::size_t nv = m.views.size();
+  const Direction& l = m.lights[image / nv];
+  const Direction& v = m.views[image % nv];
+  return fmt::format("light ({:g}, {:g}) view ({:g}, {:g})", l.theta_deg, l.phi_deg, v.theta_deg,
+                     v.phi_deg);
+}
+
+nlohmann::json image_json(const BtfModel& m, const BtfQuality& q, std::size_t image) {
+  const std::size_t nv = m.views.size();
+  const Direction& l = m.lights[image / nv];
+  const Direction& v = m.views[image % nv];
+  const ImageQuality& iq = q.images[image];
+  return {{"light", {l.theta_deg, l.phi_deg}},
+          {"view", {v.theta_deg, v.phi_deg}},
+          {"rmse", iq.rmse},
+          {"psnr_db", iq.psnr_db},
+          {"ssim", iq.ssim}};
+}
+
+nlohmann::json comparison_json(const std::string& btf, const ModelComparison& c) {
+  const BtfModel& m = c.model;
+  const BtfQuality& q = c.quality;
+  const auto& s = m.settings;
+  nlohmann::json j;
+  j["btf"] = btf;
+  j["model"] = c.name;
+  j["tile"] = {c.tile.x, c.tile.y, c.tile.width, c.tile.height};
+  j["lights"] = m.lights.size();
+  j["views"] = m.views.size();
+  j["bit_depth"] = to_string(m.format);
+  j["rmse"] = q.rmse;
+  j["psnr_db"] = q.psnr_db;  // +infinity (identical images) is written as null
+  j["ssim"] = q.ssim;
+  j["rmse_rgb"] = q.rmse_rgb;
+  j["psnr_db_rgb"] = q.psnr_db_rgb;
+  j["ssim_rgb"] = q.ssim_rgb;
+  j["data_range"] = q.range;
+  j["ssim_window"] = q.ssim_window;
+  j["worst_psnr"] = image_json(m, q, q.worst_psnr);
+  j["best_psnr"] = image_json(m, q, q.best_psnr);
+  j["worst_ssim"] = image_json(m, q, q.worst_ssim);
+  j["best_ssim"] = image_json(m, q, q.best_ssim);
+  j["mean_brdf_only"] = {{"rmse", c.mean_brdf_only.rmse},
+                         {"psnr_db", c.mean_brdf_only.psnr_db},
+                         {"ssim", c.mean_brdf_only.ssim}};
+  j["compression_ratio_paper"] = m.compression_ratio_paper();
+  j["compression_ratio_file"] = m.compression_ratio_file(c.file_bytes);
+  j["file_bytes"] = c.file_bytes;
+  j["components"] = m.mixture.size();
+  j["components_requested"] = s.components;
+  j["components_dropped"] = s.dropped;
+  j["iterations"] = s.iterations;
+  j["max_iterations"] = s.max_iterations;
+  j["epsilon"] = s.epsilon;
+  j["seed"] = s.seed;
+  j["precision"] = m.precision == Precision::kF16 ? "f16" : "f32";
+  j["log_likelihood"] = s.log_likelihood;
+  if (s.seconds > 0) j["fit_seconds"] = s.seconds;  // when the model file holds it
+  return j;
+}
+
+std::string db(double v) {
+  return std::isfinite(v) ? fmt::format("{:.2f}", v) : "inf";
+}
+
+void print_comparison(const ModelComparison& c) {
+  const BtfModel& m = c.model;
+  const BtfQuality& q = c.quality;
+  const auto& s = m.settings;
+  fmt::print("{}\n", c.name);
+  fmt::print("  tile         {}x{} pixels at ({}, {}), {} lights x {} views, {} data\n",
+             c.tile.width, c.tile.height, c.tile.x, c.tile.y, m.lights.size(), m.views.size(),
+             to_string(m.format));
+  fmt::print(
+      "  fit          M = {} ({} requested, {} dropped), {} of at most {} iterations, "
+      "epsilon {:g}, seed {}, {}{}\n",
+      m.mixture.size(), s.components, s.dropped, s.iterations, s.max_iterations, s.epsilon, s.seed,
+      m.precision == Precision::kF16 ? "f16" : "f32",
+      s.seconds > 0 ? ", " + human_seconds(s.seconds) : std::string());
+  fmt::print("               {:>8} {:>8} {:>8} {:>8}   {:<44} {}\n", "overall", "red", "green",
+             "blue", "worst image", "best image");
+  const bool hdr = m.format == SampleFormat::kHdr;  // any scale: significant digits
+  auto rm = [&](double v) { return hdr ? fmt::format("{:.4g}", v) : fmt::format("{:.3f}", v); };
+  fmt::print("  RMSE         {:>8} {:>8} {:>8} {:>8}   {:<44} {}\n", rm(q.rmse), rm(q.rmse_rgb[0]),
+             rm(q.rmse_rgb[1]), rm(q.rmse_rgb[2]),
+             fmt::format("{:>7}  {}", rm(q.images[q.worst_psnr].rmse), pair_text(m, q.worst_psnr)),
+             fmt::format("{:>7}  {}", rm(q.images[q.best_psnr].rmse), pair_text(m, q.best_psnr)));
+  fmt::print(
+      "  PSNR (dB)    {:>8} {:>8} {:>8} {:>8}   {:<44} {}\n", db(q.psnr_db), db(q.psnr_db_rgb[0]),
+      db(q.psnr_db_rgb[1]), db(q.psnr_db_rgb[2]),
+      fmt::format("{:>7}  {}", db(q.images[q.worst_psnr].psnr_db), pair_text(m, q.worst_psnr)),
+      fmt::format("{:>7}  {}", db(q.images[q.best_psnr].psnr_db), pair_text(m, q.best_psnr)));
+  fmt::print("  SSIM         {:>8.4f} {:>8.4f} {:>8.4f} {:>8.4f}   {:<44} {}\n", q.ssim,
+             q.ssim_rgb[0], q.ssim_rgb[1], q.ssim_rgb[2],
+             fmt::format("{:>7.4f}  {}", q.images[q.worst_ssim].ssim, pair_text(m, q.worst_ssim)),
+             fmt::format("{:>7.4f}  {}", q.images[q.best_ssim].ssim, pair_text(m, q.best_ssim)));
+  fmt::print("  mean BRDF    alone (no mixture): RMSE {}, PSNR {} dB, SSIM {:.4f}\n",
+             rm(c.mean_brdf_only.rmse), db(c.mean_brdf_only.psnr_db), c.mean_brdf_only.ssim);
+  fmt::print("  compression  1:{:.1f} by the paper's count, 1:{:.1f} by the file's {} bytes ({})\n",
+             m.compression_ratio_paper(), m.compression_ratio_file(c.file_bytes), c.file_bytes,
+             human_bytes(double(c.file_bytes)));
+  fmt::print(
+      "  measured     {}; PSNR = 20 log10(R / RMSE); SSIM {}x{} Gaussian window, sigma "
+      "1.5, K1 0.01, K2 0.03, no padding{}\n",
+      m.format == SampleFormat::kHdr
+          ? fmt::format("RMSE in the data's units, R = {:g} (the original's peak)", q.range)
+          : std::string("RMSE in levels of 0-255, R = 255"),
+      q.ssim_window, q.ssim_window, q.ssim_window < 11 ? " (shrunk to the tile)" : "");
+}
+
+void run_compare(const CompareOptions& o) {
+  if (!o.report.empty()) check_output_folder(o.report, o.overwrite);
+  const BtfSource src = BtfSource::open(o.btf);
+  const BtfInfo& info = src.info();
+  std::optional<Btf> tile_data;
+  std::vector<ModelComparison> results;
+  btfgmm::CompareOptions co;
+  co.worst_pairs = o.worst;
+  // Every model is read and checked against the BTF before any work.
+  std::vector<BtfModel> models;
+  for (const std::string& path : o.models) {
+    std::error_code ec;
+    if (!fs::exists(path, ec))
+      throw Error(Error::Kind::kIo,
+                  fmt::format("model '{}' does not exist; give the path of a .btfgmm file written "
+                              "by btfgmm fit",
+                              path));
+    if (!is_model_path(path))
+      throw Error(Error::Kind::kArgument,
+                  fmt::format("'{}' is not a model file; give the BTF first, then one or more "
+                              ".btfgmm models written by btfgmm fit",
+                              path));
+    const BtfModel& m = models.emplace_back(load_model(path));
+    if (!(m.lights == info.lights) || !(m.views == info.views))
+      throw Error(
+          Error::Kind::kArgument,
+          fmt::format("{}: the model was fitted to {} lights and {} views, but {} has {} "
+                      "lights and {} views{}; compare a model with the BTF it was fitted "
+                      "to",
+                      path, describe_set(m.lights), describe_set(m.views), o.btf,
+                      describe_set(info.lights), describe_set(info.views),
+                      m.lights.size() == info.lights.size() && m.views.size() == info.views.size()
+                          ? " (same counts, other directions)"
+                          : ""));
+    if ((m.format == SampleFormat::kHdr) != (info.format == SampleFormat::kHdr))
+      throw Error(Error::Kind::kArgument,
+                  fmt::format("{}: the model was fitted to {} data, {} holds {} data; compare a "
+                              "model with the BTF it was fitted to",
+                              path, to_string(m.format), o.btf, to_string(info.format)));
+    const Tile tile{m.origin.x, m.origin.y, m.width, m.height};
+    if (tile.x < 0 || tile.y < 0 || tile.x + tile.width > info.width ||
+        tile.y + tile.height > info.height)
+      throw Error(Error::Kind::kArgument,
+                  fmt::format("{}: the model's tile is {}x{} pixels at ({}, {}), outside the "
+                              "{}x{} images of {}; compare a model with the BTF it was fitted to",
+                              path, tile.width, tile.height, tile.x, tile.y, info.width,
+                              info.height, o.btf));
+  }
+  for (std::size_t k = 0; k < models.size(); ++k) {
+    const auto t0 = Clock::now();
+    const BtfModel& m = models[k];
+    const std::string& path = o.models[k];
+    const Tile tile{m.origin.x, m.origin.y, m.width, m.height};
+    if (!tile_data || !same_tile(tile_data->origin(), tile)) tile_data = src.load(tile);
+    results.push_back(compare_model(*tile_data, m, path, std::uint64_t(fs::file_size(path)), co));
+    if (!o.quiet)
+      fmt::print(stderr, "compared {} with its {}x{} tile of {} in {}\n", path, tile.width,
+                 tile.height, o.btf, human_seconds(since(t0)));
+  }
+
+  nlohmann::json all = nlohmann::json::array();
+  for (const auto& c : results) all.push_back(comparison_json(o.btf, c));
+  if (o.json) {
+    std::cout << (results.size() == 1 ? all[0] : all).dump(2) << "\n";
+  } else {
+    fmt::print("{}: {} lights x {} views, {}x{} pixels, {} data\n\n", o.btf, info.lights.size(),
+               info.views.size(), info.width, info.height, to_string(info.format));
+    for (std::size_t i = 0; i < results.size(); ++i) {
+      if (i) fmt::print("\n");
+      print_comparison(results[i]);
+    }
+    if (results.size() > 1) {
+      fmt::print("\n{:<36} {:>6} {:>9} {:>8} {:>7} {:>10} {:>10}\n", "model", "M", "RMSE",
+                 "PSNR dB", "SSIM", "C.R. paper", "C.R. file");
+      for (const auto& c : results)
+        fmt::print("{:<36} {:>6} {:>9.4g} {:>8} {:>7.4f} {:>10} {:>10}\n", c.name,
+                   c.model.mixture.size(), c.quality.rmse, db(c.quality.psnr_db), c.quality.ssim,
+                   fmt::format("1:{:.1f}", c.model.compression_ratio_paper()),
+                   fmt::format("1:{:.1f}", c.model.compression_ratio_file(c.file_bytes)));
+    }
+  }
+  if (!o.report.empty()) {
+    write_report(o.report, o.btf, results);
+    std::ofstream(fs::path(o.report) / "compare.json") << all.dump(2) << "\n";
+    if (!o.quiet)
+      fmt::print(stderr, "wrote the report {}\n", (fs::path(o.report) / "index.html").string());
+  }
+}
+
+}  // namespace
+
+void register_compare_commands(CLI::App& app, Commands& commands) {
+  auto opt = std::make_shared<CompareOptions>();
+  auto* c = app.add_subcommand(
+      "compare",
+      "Measure models against the BTF they were fitted to: RMSE, PSNR, SSIM, compression "
+      "ratios; a table, JSON, or an HTML report");
+  c->add_option("btf", opt->btf, "The BTF folder or Bonn .zip the models were fitted to")
+      ->required();
+  c->add_option("models", opt->models, "One or more .btfgmm models of that BTF")->required();
+  c->add_flag("--json", opt->json,
+              "JSON for scripts: one object (an array of objects for several models)");
+  c->add_option("--report", opt->report,
+                "Write an HTML report (index.html, pictures, curves) to this folder");
+  c->add_option("--worst", opt->worst, "Pictures of the N worst (light, view) images in the report")
+      ->check(CLI::Range(std::size_t(0), std::size_t(100)))
+      ->capture_default_str();
+  c->add_flag("--overwrite", opt->overwrite, "Replace the files of a non-empty report folder");
+  c->add_flag("-q,--quiet", opt->quiet, "No progress on stderr");
+
+  commands.push_back({c, [opt] { run_compare(*opt); }});
+}
+
+}  // namespace btfgmm::cli
