@@ -15,7 +15,9 @@ struct Command {
 };
 using Commands = std::vector<Command>;
 
-void register_data_commands(CLI::App& app, Commands& commands);   // generate, info
-void register_model_commands(CLI::App& app, Commands& commands);  // fit, decode, eval
+void register_data_commands(CLI::App& app, Commands& commands);     // generate, info
+void register_model_commands(CLI::App& app, Commands& commands);    // fit, decode, eval
+void register_compare_commands(CLI::App& app, Commands& commands);  // compare
+void register_render_commands(CLI::App& app, Commands& commands);   // render, tile
 
 }  // namespace btfgmm::cli

@@ -16,11 +16,15 @@ int main(int argc, char** argv) {
   btfgmm::cli::Commands commands;
   btfgmm::cli::register_data_commands(app, commands);
   btfgmm::cli::register_model_commands(app, commands);
+  btfgmm::cli::register_compare_commands(app, commands);
+  btfgmm::cli::register_render_commands(app, commands);
 
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& err) {
-    return app.exit(err);
+    // CLI11 prints the help, the version or the usage error; its own exit codes (105 for a
+    // value out of range, ...) become the documented 2.
+    return app.exit(err) == 0 ? 0 : 2;
   }
 
   try {

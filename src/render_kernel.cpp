@@ -1,0 +1,778 @@
+// The evaluators of the renderer: the model (Eq. 8-11) for many surface points at once, and
+// the measured data interpolated over the measured directions; a fast look-up of
+// DirectionInterpolator's weights.
+//
+// The model kernel (docs/RENDERING.md, "The kernel"). For a point with inputs
+// x_I = (x, y, alpha_i, beta_i, alpha_v, beta_v) in model units, Eq. (9) gives the log weight
+//   t_m = log w_m - 1/2 sum_k log sigma_mk^2 - sum_k (x_k - mu_mk)^2 / (2 sigma_mk^2),
+// and the colour is sum_m W_m mu_m,rgb (times the colour unit) plus the mean BRDF (Eq. 11).
+// Points come in blocks of up to 64 (an 8 x 8 screen block); per block:
+//  1. the box of the block's inputs (x and y as up to two intervals, the tile wraps);
+//  2. per component an upper bound U_m and a lower bound L_m of t_m over the box;
+//     Lmax = max_m L_m is at most every point's largest log weight t*, so a skipped component
+//     has a normalised weight below exp(U_m - Lmax). Components with U_m < Lmax - T are
+//     skipped, T = ln(M R / tolerance), R the spread of the components' colour means in
+//     levels: the skipped ones change a point's colour by at most M exp(-T) R = tolerance.
+//  3. the kept components are gathered into contiguous float arrays, and each point sums
+//     exp(t_m - r) over them in one vectorised loop (r = max_m U_m, an upper bound of every
+//     t_m in the block, so no per-point maximum pass is needed while r - Lmax is small; a
+//     block where it is not takes the per-point maximum first).
+// Work is in log2 units with a polynomial exp2 (Cephes' exp2f polynomial, relative error
+// ~2e-7).
+#include <fmt/format.h>
+#include <omp.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstring>
+#include <limits>
+#include <map>
+#include <numbers>
+
+#include "btfgmm/error.hpp"
+#include "btfgmm/render.hpp"
+
+namespace btfgmm {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double since(Clock::time_point t) {
+  return std::chrono::duration<double>(Clock::now() - t).count();
+}
+
+constexpr int kMaxBlock = int(ModelEvaluator::kGroup);
+
+// 2^x for x <= 0, vectorisable: x = n + f, |f| <= 1/2, 2^f by Cephes' exp2f polynomial
+// (relative error ~2e-7), 2^n added to the exponent bits. Inputs below -126 give 2^-126.
+inline float exp2_nonpositive(float x) {
+  x = x < -126.0f ? -126.0f : x;
+  const float shifter = 12582912.0f;  // 1.5 * 2^23: adding it rounds to an integer
+  const float n = (x + shifter) - shifter;
+  const float f = x - n;
+  float p = 1.535336188319500e-4f;
+  p = p * f + 1.339887440266574e-3f;
+  p = p * f + 9.618437357674640e-3f;
+  p = p * f + 5.550332471162809e-2f;
+  p = p * f + 2.402264791363012e-1f;
+  p = p * f + 6.931472028550421e-1f;
+  p = p * f + 1.0f;
+  std::int32_t bits;
+  std::memcpy(&bits, &p, sizeof bits);
+  bits += static_cast<std::int32_t>(n) * (1 << 23);
+  float y;
+  std::memcpy(&y, &bits, sizeof y);
+  return y;
+}
+
+// atan2(y, x) for x >= 0 (a result in [-pi/2, pi/2]), vectorisable: the ratio of the
+// smaller to the larger magnitude in [0, 1], reduced by tan(pi/8) and Cephes' atanf
+// polynomial (absolute error ~2e-7 radians; tests/test_render.cpp measures it).
+inline float atan2_right(float y, float x) {
+  const float ay = std::abs(y);
+  const bool swap = ay > x;
+  const float num = swap ? x : ay, den = swap ? ay : x;
+  const float t = den > 0.0f ? num / den : 0.0f;
+  const bool big = t > 0.41421356237f;
+  const float u = big ? (t - 1.0f) / (t + 1.0f) : t;
+  const float z = u * u;
+  float p = 8.05374449538e-2f;
+  p = p * z - 1.38776856032e-1f;
+  p = p * z + 1.99777106478e-1f;
+  p = p * z - 3.33329491539e-1f;
+  float r = p * z * u + u + (big ? 0.78539816339745f : 0.0f);
+  r = swap ? 1.57079632679490f - r : r;
+  return y < 0.0f ? -r : r;
+}
+
+// The kept components of a block, gathered into contiguous arrays: per input the scale s
+// and offset s mu (the term of Eq. 9 is (x s - s mu)^2 in log2 units), the log2 base weight
+// (less the block's reference), the colour means.
+struct Gathered {
+  const float* scale[kInputs];
+  const float* offset[kInputs];
+  const float* base;
+  const float* colour[3];
+  std::size_t n;
+};
+
+struct Sums {
+  float sum = 0, c0 = 0, c1 = 0, c2 = 0;
+};
+
+// Sum over the gathered components of 2^t and 2^t mu, t = base - sum_k (x_k s_k - o_k)^2
+// (t <= 0: the base holds the block's upper bound). One vectorised pass.
+[[gnu::noinline]] Sums sum_weights(const Gathered& g, const float* x) {
+  const float* __restrict s0 = g.scale[0], * __restrict s1 = g.scale[1], * __restrict s2 = g.scale[2], * __restrict s3 = g.scale[3], * __restrict s4 = g.scale[4], * __restrict s5 = g.scale[5];
+  const float* __restrict o0 = g.offset[0], * __restrict o1 = g.offset[1], * __restrict o2 = g.offset[2], * __restrict o3 = g.offset[3], * __restrict o4 = g.offset[4], * __restrict o5 = g.offset[5];
+  const float* __restrict base = g.base, * __restrict m0 = g.colour[0], * __restrict m1 = g.colour[1], * __restrict m2 = g.colour[2];
+  const float x0 = x[0], x1 = x[1], x2 = x[2], x3 = x[3], x4 = x[4], x5 = x[5];
+  float sum = 0, c0 = 0, c1 = 0, c2 = 0;
+  const std::size_t n = g.n;
+#pragma omp simd reduction(+ : sum, c0, c1, c2)
+  for (std::size_t a = 0; a < n; ++a) {
+    const float e0 = x0 * s0[a] - o0[a], e1 = x1 * s1[a] - o1[a], e2 = x2 * s2[a] - o2[a],
+                e3 = x3 * s3[a] - o3[a], e4 = x4 * s4[a] - o4[a], e5 = x5 * s5[a] - o5[a];
+    const float l = base[a] - e0 * e0 - e1 * e1 - e2 * e2 - e3 * e3 - e4 * e4 - e5 * e5;
+    const float w = exp2_nonpositive(l);
+    sum += w;
+    c0 += w * m0[a];
+    c1 += w * m1[a];
+    c2 += w * m2[a];
+  }
+  return {sum, c0, c1, c2};
+}
+
+// The log2 weights t of every gathered component into `t`; returns their maximum.
+[[gnu::noinline]] float log_weights(const Gathered& g, const float* x, float* __restrict t) {
+  const float* __restrict s0 = g.scale[0], * __restrict s1 = g.scale[1], * __restrict s2 = g.scale[2], * __restrict s3 = g.scale[3], * __restrict s4 = g.scale[4], * __restrict s5 = g.scale[5];
+  const float* __restrict o0 = g.offset[0], * __restrict o1 = g.offset[1], * __restrict o2 = g.offset[2], * __restrict o3 = g.offset[3], * __restrict o4 = g.offset[4], * __restrict o5 = g.offset[5];
+  const float* __restrict base = g.base;
+  const float x0 = x[0], x1 = x[1], x2 = x[2], x3 = x[3], x4 = x[4], x5 = x[5];
+  float mx = -std::numeric_limits<float>::infinity();
+  const std::size_t n = g.n;
+#pragma omp simd reduction(max : mx)
+  for (std::size_t a = 0; a < n; ++a) {
+    const float e0 = x0 * s0[a] - o0[a], e1 = x1 * s1[a] - o1[a], e2 = x2 * s2[a] - o2[a],
+                e3 = x3 * s3[a] - o3[a], e4 = x4 * s4[a] - o4[a], e5 = x5 * s5[a] - o5[a];
+    const float l = base[a] - e0 * e0 - e1 * e1 - e2 * e2 - e3 * e3 - e4 * e4 - e5 * e5;
+    t[a] = l;
+    mx = l > mx ? l : mx;
+  }
+  return mx;
+}
+
+// Sum of 2^(t - mx) and 2^(t - mx) mu.
+[[gnu::noinline]] Sums sum_exp(const Gathered& g, const float* __restrict t, float mx) {
+  const float* __restrict m0 = g.colour[0], * __restrict m1 = g.colour[1], * __restrict m2 = g.colour[2];
+  float sum = 0, c0 = 0, c1 = 0, c2 = 0;
+  const std::size_t n = g.n;
+#pragma omp simd reduction(+ : sum, c0, c1, c2)
+  for (std::size_t a = 0; a < n; ++a) {
+    const float w = exp2_nonpositive(t[a] - mx);
+    sum += w;
+    c0 += w * m0[a];
+    c1 += w * m1[a];
+    c2 += w * m2[a];
+  }
+  return {sum, c0, c1, c2};
+}
+
+// x modulo the period, as predict() wraps it (a coordinate already inside is returned as is).
+double wrap(double x, int period) {
+  if (x >= 0.0 && x < double(period)) return x;
+  double r = std::fmod(x, double(period));
+  if (r < 0) r += period;
+  return r >= period ? 0.0 : r;
+}
+
+// Up to two closed intervals in [0, period] holding a set of wrapped coordinates.
+struct Intervals {
+  float lo[2] = {0, 0}, hi[2] = {0, 0};
+  int count = 1;
+};
+
+Intervals wrapped_box(const float* v, int n, int stride, int period) {
+  const float ref = v[0], half = 0.5f * float(period), per = float(period);
+  float dmin = 0, dmax = 0;
+  for (int i = 1; i < n; ++i) {
+    float d = v[i * stride] - ref;
+    if (d > half) d -= per;
+    if (d < -half) d += per;
+    dmin = std::min(dmin, d);
+    dmax = std::max(dmax, d);
+  }
+  Intervals r;
+  const float a = ref + dmin, b = ref + dmax;
+  if (b - a >= half) {  // wide: the whole tile
+    r.lo[0] = 0;
+    r.hi[0] = per;
+  } else if (a < 0) {
+    r.count = 2;
+    r.lo[0] = a + per, r.hi[0] = per;
+    r.lo[1] = 0, r.hi[1] = b;
+  } else if (b > per) {
+    r.count = 2;
+    r.lo[0] = a, r.hi[0] = per;
+    r.lo[1] = 0, r.hi[1] = b - per;
+  } else {
+    r.lo[0] = a, r.hi[0] = b;
+  }
+  return r;
+}
+
+}  // namespace
+
+// ---- the fast direction interpolator ------------------------------------------------------
+
+FastDirectionInterpolator::FastDirectionInterpolator(const DirectionSet& set) : slow_(set) {
+  for (const Direction& d : set) {
+    const Vec3 v = to_vector(d);
+    points_.push_back({v.x, v.y});
+  }
+  triangles_ = slow_.triangles();
+  // The boundary edges, in DirectionInterpolator's order (so that ties resolve alike).
+  std::map<std::pair<std::uint32_t, std::uint32_t>, int> count;
+  for (const auto& t : triangles_)
+    for (int e = 0; e < 3; ++e)
+      count[{std::min(t[std::size_t(e)], t[std::size_t(e + 1) % 3]),
+             std::max(t[std::size_t(e)], t[std::size_t(e + 1) % 3])}]++;
+  for (const auto& [edge, n] : count)
+    if (n == 1) hull_edges_.push_back({edge.first, edge.second});
+  if (triangles_.empty()) return;  // the slow path handles degenerate sets
+  grid_ = std::clamp(int(std::sqrt(double(triangles_.size()))) * 2, 4, 256);
+  const std::size_t cells = std::size_t(grid_) * std::size_t(grid_);
+  std::vector<std::vector<std::uint32_t>> lists(cells);
+  const double margin = 1e-9;
+  for (std::uint32_t t = 0; t < triangles_.size(); ++t) {
+    double x0 = 1e300, x1 = -1e300, y0 = 1e300, y1 = -1e300;
+    for (std::uint32_t i : triangles_[t]) {
+      x0 = std::min(x0, points_[i][0]);
+      x1 = std::max(x1, points_[i][0]);
+      y0 = std::min(y0, points_[i][1]);
+      y1 = std::max(y1, points_[i][1]);
+    }
+    auto cell = [&](double v) {
+      return std::clamp(int(std::floor((v + 1.0) * 0.5 * grid_)), 0, grid_ - 1);
+    };
+    for (int cy = cell(y0 - margin); cy <= cell(y1 + margin); ++cy)
+      for (int cx = cell(x0 - margin); cx <= cell(x1 + margin); ++cx)
+        lists[std::size_t(cy) * std::size_t(grid_) + std::size_t(cx)].push_back(t);
+  }
+  cell_start_.push_back(0);
+  for (const auto& l : lists) {
+    cell_triangles_.insert(cell_triangles_.end(), l.begin(), l.end());
+    cell_start_.push_back(std::uint32_t(cell_triangles_.size()));
+  }
+}
+
+DirectionInterpolator::Weights FastDirectionInterpolator::weights(const Vec3& v) const {
+  std::uint32_t hint = std::numeric_limits<std::uint32_t>::max();
+  return weights(v, hint);
+}
+
+DirectionInterpolator::Weights FastDirectionInterpolator::weights(const Vec3& v,
+                                                                  std::uint32_t& hint) const {
+  if (triangles_.empty()) return slow_.weights(v);
+  // As DirectionInterpolator: below the horizon, the horizon direction with the same azimuth.
+  const double n = std::sqrt(v.x * v.x + v.y * v.y + std::max(v.z, 0.0) * std::max(v.z, 0.0));
+  if (!(n > 0.0) || !std::isfinite(n)) return weights_at(0.0, 0.0, &hint);
+  return weights_at(v.x / n, v.y / n, &hint);
+}
+
+// The arithmetic of DirectionInterpolator::weights_at over the triangles near the query
+// (every triangle that could contain it): the same weights, bit for bit. A query well inside
+// the hinted triangle (every barycentric weight above 1e-4) lies in no other triangle: that
+// triangle is the one the scan would find.
+DirectionInterpolator::Weights FastDirectionInterpolator::weights_at(double qx, double qy,
+                                                                     std::uint32_t* hint) const {
+  DirectionInterpolator::Weights best;
+  double best_min = -std::numeric_limits<double>::infinity();
+  std::uint32_t best_tri = std::numeric_limits<std::uint32_t>::max();
+  const auto try_triangle = [&](std::uint32_t ti) {
+    const auto& t = triangles_[ti];
+    const auto &a = points_[t[0]], &b = points_[t[1]], &c = points_[t[2]];
+    const double area = (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0]);
+    const double wa = ((b[0] - qx) * (c[1] - qy) - (b[1] - qy) * (c[0] - qx)) / area;
+    const double wb = ((c[0] - qx) * (a[1] - qy) - (c[1] - qy) * (a[0] - qx)) / area;
+    const double wc = 1.0 - wa - wb;
+    const double m = std::min({wa, wb, wc});
+    if (m > best_min) {
+      best_min = m;
+      best_tri = ti;
+      best.index = t;
+      best.weight = {wa, wb, wc};
+    }
+  };
+  if (hint && *hint < triangles_.size()) try_triangle(*hint);
+  if (!(best_min > 1e-4)) {
+    best_min = -std::numeric_limits<double>::infinity();
+    best_tri = std::numeric_limits<std::uint32_t>::max();
+    const int cx = std::clamp(int(std::floor((qx + 1.0) * 0.5 * grid_)), 0, grid_ - 1);
+    const int cy = std::clamp(int(std::floor((qy + 1.0) * 0.5 * grid_)), 0, grid_ - 1);
+    const std::size_t cell = std::size_t(cy) * std::size_t(grid_) + std::size_t(cx);
+    for (std::uint32_t k = cell_start_[cell]; k < cell_start_[cell + 1]; ++k)
+      try_triangle(cell_triangles_[k]);
+  }
+  if (hint) *hint = best_tri;
+  if (best_min < -1e-12) {
+    if (hint) *hint = std::numeric_limits<std::uint32_t>::max();
+    double best_d = std::numeric_limits<double>::infinity();
+    for (const auto& e : hull_edges_) {
+      const auto &a = points_[e[0]], &b = points_[e[1]];
+      const double dx = b[0] - a[0], dy = b[1] - a[1], len2 = dx * dx + dy * dy;
+      double s = len2 > 0.0 ? ((qx - a[0]) * dx + (qy - a[1]) * dy) / len2 : 0.0;
+      s = std::clamp(s, 0.0, 1.0);
+      const double px = a[0] + s * dx - qx, py = a[1] + s * dy - qy;
+      const double d2 = px * px + py * py;
+      if (d2 < best_d) {
+        best_d = d2;
+        best.index = {e[0], e[1], e[0]};
+        best.weight = {1.0 - s, s, 0.0};
+      }
+    }
+  }
+  double sum = 0.0;
+  for (double& w : best.weight) sum += (w = std::max(w, 0.0));
+  for (double& w : best.weight) w /= sum;
+  for (int i = 0; i < 3; ++i)
+    if (best.weight[std::size_t(i)] > 1.0 - 1e-12) {
+      best.weight = {0.0, 0.0, 0.0};
+      best.weight[std::size_t(i)] = 1.0;
+    }
+  return best;
+}
+
+// ---- the model ----------------------------------------------------------------------------
+
+struct ModelEvaluator::Impl {
+  int width = 0, height = 0;
+  std::size_t m = 0;
+  std::array<double, kVariables> unit{};
+  // Per input k and component: s = sqrt(log2(e) / (2 sigma^2)) and s * mu, so that
+  // (x s - s mu)^2 is the term of Eq. (9) in log2 units; base = log2 of w_m over the
+  // normalisation; the colour means in model units.
+  std::array<std::vector<float>, kInputs> scale, offset;
+  std::vector<float> base;
+  std::array<std::vector<float>, 3> colour;
+  // The same, packed as 16 rows of M: scale 0-5, offset 6-11, base 12, colour 13-15.
+  std::vector<float> packed;
+  // For the bounds: the means and s^2 per input.
+  std::array<std::vector<float>, kInputs> mean_f, scale2_f;
+  // Skipping: on when tolerance > 0; a skipped set's sum of 2^(U_m - Lmax) may reach
+  // budget = tolerance / spread (spread: of the components' colour means, levels).
+  bool cull = false;
+  double budget = 0.0;
+  std::vector<float> mean_brdf;
+  std::size_t views = 0;
+  FastDirectionInterpolator lights_interp, views_interp;
+
+  explicit Impl(const BtfModel& model) : lights_interp(model.lights), views_interp(model.views) {}
+};
+
+namespace {
+
+// Per component, an upper and a lower bound of its log2 weight (Eq. 9, log2 units) over a
+// box of inputs: x and y as up to two intervals each, the four angles as intervals.
+// Vectorised over the components, one input at a time, in float with a margin for rounding.
+[[gnu::noinline]] void bound_log_weights(const ModelEvaluator::Impl& k, const Intervals& bx,
+                                         const Intervals& by, const std::array<float, kInputs>& lo,
+                                         const std::array<float, kInputs>& hi,
+                                         float* __restrict upper, float* __restrict lower,
+                                         float* __restrict magnitude) {
+  const std::size_t M = k.m;
+  for (std::size_t j = 0; j < M; ++j) {
+    upper[j] = lower[j] = k.base[j];
+    magnitude[j] = 0.0f;
+  }
+  for (int d = 0; d < kInputs; ++d) {
+    Intervals iv;
+    if (d == 0) iv = bx;
+    if (d == 1) iv = by;
+    if (d >= 2) iv.lo[0] = lo[std::size_t(d)], iv.hi[0] = hi[std::size_t(d)];
+    const float* __restrict mean = k.mean_f[std::size_t(d)].data();
+    const float* __restrict sc2 = k.scale2_f[std::size_t(d)].data();
+    const float a0 = iv.lo[0], b0 = iv.hi[0];
+    const float a1 = iv.count == 2 ? iv.lo[1] : a0, b1 = iv.count == 2 ? iv.hi[1] : b0;
+    float* __restrict mag = magnitude;
+#pragma omp simd
+    for (std::size_t j = 0; j < M; ++j) {
+      const float mu = mean[j];
+      const float n0 = std::max(std::max(a0 - mu, mu - b0), 0.0f);
+      const float n1 = std::max(std::max(a1 - mu, mu - b1), 0.0f);
+      const float f0 = std::max(std::abs(mu - a0), std::abs(mu - b0));
+      const float f1 = std::max(std::abs(mu - a1), std::abs(mu - b1));
+      const float dmin = std::min(n0, n1), dmax = std::max(f0, f1);
+      const float far = dmax * dmax * sc2[j];
+      upper[j] -= dmin * dmin * sc2[j];
+      lower[j] -= far;
+      mag[j] += far;
+    }
+  }
+  // Rounding of the inputs, of these sums and of the kernel's float arithmetic.
+  const float* __restrict mag = magnitude;
+#pragma omp simd
+  for (std::size_t j = 0; j < M; ++j) {
+    const float margin = 1e-3f + 4e-6f * (mag[j] + std::abs(k.base[j]));
+    upper[j] += margin;
+    lower[j] -= margin;
+  }
+}
+
+// The components a block needs (their indices into `keep`, returning how many), r = the
+// largest upper bound kept, and Lmax, a lower bound of every point's largest log2 weight t*:
+// the larger of max_m lower_m and, over the points, the smallest of the exact log weights of
+// the four components with the largest upper bounds. A component may be skipped while the
+// skipped set's sum of 2^(upper_m - Lmax) stays within the budget: its normalised weight at
+// any point is below 2^(upper_m - Lmax). The sum is taken a whole log2 unit of
+// (Lmax - upper) at a time, from the farthest components in.
+[[gnu::noinline]] std::size_t select_components(const ModelEvaluator::Impl& k, const float* in,
+                                                int n, const float* __restrict upper,
+                                                const float* __restrict lower,
+                                                std::uint32_t* __restrict keep,
+                                                std::int32_t* __restrict bucket, double& r,
+                                                double& lmax) {
+  const std::size_t M = k.m;
+  float lm = -std::numeric_limits<float>::infinity(), um = lm;
+#pragma omp simd reduction(max : lm, um)
+  for (std::size_t j = 0; j < M; ++j) {
+    lm = std::max(lm, lower[j]);
+    um = std::max(um, upper[j]);
+  }
+  // The exact log weights, at every point, of the components with the largest upper and
+  // lower bounds: the smaller over the points of their larger is a lower bound of t*.
+  std::array<std::size_t, 2> best_j{0, 0};
+  for (std::size_t j = 0; j < M; ++j)
+    if (upper[j] == um) {
+      best_j[0] = j;
+      break;
+    }
+  for (std::size_t j = 0; j < M; ++j)
+    if (lower[j] == lm) {
+      best_j[1] = j;
+      break;
+    }
+  float exact = std::numeric_limits<float>::infinity();
+  for (int i = 0; i < n; ++i) {
+    const float* x = in + std::size_t(i) * kInputs;
+    float best = -std::numeric_limits<float>::infinity();
+    for (std::size_t j : best_j) {
+      float t = k.base[j];
+      for (int d = 0; d < kInputs; ++d) {
+        const float e = x[d] * k.scale[std::size_t(d)][j] - k.offset[std::size_t(d)][j];
+        t -= e * e;
+      }
+      best = std::max(best, t);
+    }
+    exact = std::min(exact, best);
+  }
+  lmax = std::max(double(lm), double(exact) - 1e-3 - 4e-6 * std::abs(double(exact)));
+  // Buckets of g = Lmax - upper by whole log2 units: -1 for g < 0 (always kept), 63 for
+  // everything beyond; a component in bucket b >= 0 has 2^-g <= 2^-b.
+  const float lf = float(lmax);
+#pragma omp simd
+  for (std::size_t j = 0; j < M; ++j) {
+    const float g = lf - upper[j];
+    bucket[j] = g < 0.0f ? -1 : std::int32_t(std::min(g, 63.0f));
+  }
+  std::array<std::uint32_t, 65> count{};
+  for (std::size_t j = 0; j < M; ++j) ++count[std::size_t(bucket[j] + 1)];
+  double used = 0.0;
+  int stop = 63;  // buckets above `stop` are skipped
+  for (; stop >= 0; --stop) {
+    const double mass = double(count[std::size_t(stop + 1)]) * std::exp2(-double(stop));
+    if (used + mass > k.budget) break;
+    used += mass;
+  }
+  std::size_t kept = 0;
+  float rf = -std::numeric_limits<float>::infinity();
+  for (std::size_t j = 0; j < M; ++j) {
+    const bool take = bucket[j] <= stop;
+    keep[kept] = std::uint32_t(j);
+    kept += take;
+    rf = std::max(rf, take ? upper[j] : rf);
+  }
+  r = rf;
+  return kept;
+}
+
+}  // namespace
+
+ModelEvaluator::ModelEvaluator(const BtfModel& model, double tolerance) {
+  const ProductMixture& mix = model.mixture;
+  if (mix.size() == 0 || model.width < 1 || model.height < 1 || model.lights.empty() ||
+      model.views.empty() || model.mean_brdf.size() != model.lights.size() * model.views.size() * 3)
+    throw Error(Error::Kind::kArgument,
+                "render: the model is empty or inconsistent (no components, no tile or a mean "
+                "BRDF of the wrong size); load it with load_model()");
+  if (!(tolerance >= 0.0) || !std::isfinite(tolerance))
+    throw Error(Error::Kind::kArgument,
+                fmt::format("--tolerance {} must be a finite number of levels >= 0", tolerance));
+  impl_ = std::make_unique<Impl>(model);
+  Impl& k = *impl_;
+  k.width = model.width;
+  k.height = model.height;
+  k.m = mix.size();
+  k.unit = model.scaling.unit;
+  k.mean_brdf = model.mean_brdf;
+  k.views = model.views.size();
+  const double log2e = std::numbers::log2e;
+  for (int i = 0; i < kInputs; ++i) {
+    k.scale[std::size_t(i)].resize(k.m);
+    k.offset[std::size_t(i)].resize(k.m);
+    k.mean_f[std::size_t(i)].resize(k.m);
+    k.scale2_f[std::size_t(i)].resize(k.m);
+  }
+  k.base.resize(k.m);
+  for (auto& c : k.colour) c.resize(k.m);
+  std::array<double, 3> lo{1e300, 1e300, 1e300}, hi{-1e300, -1e300, -1e300};
+  for (std::size_t j = 0; j < k.m; ++j) {
+    // As predict(): log w_m - 1/2 sum_{n in I} log sigma^2.
+    double b = std::log(mix.weight[j]);
+    for (int i = 0; i < kInputs; ++i) b -= 0.5 * std::log(mix.var[j][std::size_t(i)]);
+    k.base[j] = float(b * log2e);
+    for (int i = 0; i < kInputs; ++i) {
+      const double s2 = log2e / (2.0 * mix.var[j][std::size_t(i)]);
+      const double s = std::sqrt(s2);
+      k.scale[std::size_t(i)][j] = float(s);
+      k.offset[std::size_t(i)][j] = float(s * mix.mean[j][std::size_t(i)]);
+      k.mean_f[std::size_t(i)][j] = float(mix.mean[j][std::size_t(i)]);
+      k.scale2_f[std::size_t(i)][j] = float(s2);
+    }
+    for (int c = 0; c < 3; ++c) {
+      const double mu = mix.mean[j][std::size_t(6 + c)];
+      k.colour[std::size_t(c)][j] = float(mu);
+      lo[std::size_t(c)] = std::min(lo[std::size_t(c)], mu * k.unit[std::size_t(6 + c)]);
+      hi[std::size_t(c)] = std::max(hi[std::size_t(c)], mu * k.unit[std::size_t(6 + c)]);
+    }
+  }
+  k.packed.resize(16 * k.m);
+  for (std::size_t j = 0; j < k.m; ++j) {
+    for (int i = 0; i < kInputs; ++i) {
+      k.packed[std::size_t(i) * k.m + j] = k.scale[std::size_t(i)][j];
+      k.packed[std::size_t(kInputs + i) * k.m + j] = k.offset[std::size_t(i)][j];
+    }
+    k.packed[12 * k.m + j] = k.base[j];
+    for (int c = 0; c < 3; ++c)
+      k.packed[std::size_t(13 + c) * k.m + j] = k.colour[std::size_t(c)][j];
+  }
+  const double spread = std::max({hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]});
+  if (tolerance > 0.0 && k.m > 1) {
+    k.cull = true;
+    // Skipped components change a colour by at most spread * sum 2^(U_m - Lmax) (see the
+    // file's comment): that sum may reach tolerance / spread.
+    k.budget = spread > 0.0 ? tolerance / spread : std::numeric_limits<double>::infinity();
+  }
+}
+
+ModelEvaluator::~ModelEvaluator() = default;
+ModelEvaluator::ModelEvaluator(ModelEvaluator&&) noexcept = default;
+ModelEvaluator& ModelEvaluator::operator=(ModelEvaluator&&) noexcept = default;
+std::size_t ModelEvaluator::components() const {
+  return impl_->m;
+}
+
+EvaluationStats ModelEvaluator::evaluate(std::span<const SurfacePoint> points, std::span<float> rgb,
+                                         std::span<const std::uint32_t> groups) const {
+  if (rgb.size() < points.size() * 3)
+    throw Error(Error::Kind::kArgument, "evaluate: the output holds fewer than 3 floats a point");
+  for (const SurfacePoint& p : points)
+    if (!std::isfinite(p.x) || !std::isfinite(p.y) || !(p.light[2] >= 0.0f) || !(p.view[2] >= 0.0f))
+      throw Error(Error::Kind::kArgument,
+                  fmt::format("evaluate: a point ({}, {}) is not finite or has a direction below "
+                              "the horizon",
+                              p.x, p.y));
+  const auto t0 = Clock::now();
+  const Impl& k = *impl_;
+  const std::size_t M = k.m;
+  if (points.size() >= (std::size_t(1) << 32))
+    throw Error(Error::Kind::kArgument, "evaluate: more than 2^32 points at once; split them");
+  // Group boundaries: the caller's, or consecutive groups of kMaxBlock.
+  std::vector<std::uint32_t> bounds;
+  if (groups.empty()) {
+    for (std::size_t p = 0; p < points.size(); p += kMaxBlock) bounds.push_back(std::uint32_t(p));
+    bounds.push_back(std::uint32_t(points.size()));
+  } else {
+    bounds.assign(groups.begin(), groups.end());
+    if (bounds.back() != points.size()) bounds.push_back(std::uint32_t(points.size()));
+    for (std::size_t b = 0; b + 1 < bounds.size(); ++b)
+      if (bounds[b + 1] < bounds[b] || bounds[b + 1] - bounds[b] > kGroup)
+        throw Error(Error::Kind::kArgument,
+                    fmt::format("evaluate: group {} is not ascending or holds more than {} points",
+                                b, kGroup));
+  }
+  const std::ptrdiff_t blocks = std::ptrdiff_t(bounds.size()) - 1;
+  std::uint64_t evaluated = 0;
+  const float u2 = float(1.0 / k.unit[2]), u3 = float(1.0 / k.unit[3]), u4 = float(1.0 / k.unit[4]),
+              u5 = float(1.0 / k.unit[5]);
+#pragma omp parallel reduction(+ : evaluated)
+  {
+    std::vector<float> in(std::size_t(kMaxBlock) * kInputs);
+    std::vector<float> upper(M), lower(M), scratch(M);
+    std::vector<std::int32_t> bucket(M);
+    std::vector<std::uint32_t> keep(M);
+    // The kept components, gathered: s0..s5, o0..o5, base, r, g, b.
+    std::vector<float> g(16 * M + 16);
+    std::vector<float> t(M);
+    std::uint32_t hint_l = std::numeric_limits<std::uint32_t>::max(), hint_v = hint_l;
+#pragma omp for schedule(dynamic, 4)
+    for (std::ptrdiff_t blk = 0; blk < blocks; ++blk) {
+      const std::size_t p0 = bounds[std::size_t(blk)];
+      const int n = int(bounds[std::size_t(blk) + 1] - p0);
+      if (n == 0) continue;
+      // 1. The inputs in model units.
+      const SurfacePoint* pts = &points[p0];
+      for (int i = 0; i < n; ++i) {
+        in[std::size_t(i) * kInputs] = float(wrap(pts[i].x, k.width));
+        in[std::size_t(i) * kInputs + 1] = float(wrap(pts[i].y, k.height));
+      }
+      // Onion-slice angles (directions.hpp): alpha = atan2(y, z), beta = asin(x) =
+      // atan2(x, sqrt(1 - x^2)); z >= 0.
+#pragma omp simd
+      for (int i = 0; i < n; ++i) {
+        const SurfacePoint& p = pts[i];
+        float* x = &in[std::size_t(i) * kInputs];
+        const float lx = std::clamp(p.light[0], -1.0f, 1.0f),
+                    vx = std::clamp(p.view[0], -1.0f, 1.0f);
+        x[2] = atan2_right(p.light[1], p.light[2]) * u2;
+        x[3] = atan2_right(lx, std::sqrt((1.0f - lx) * (1.0f + lx))) * u3;
+        x[4] = atan2_right(p.view[1], p.view[2]) * u4;
+        x[5] = atan2_right(vx, std::sqrt((1.0f - vx) * (1.0f + vx))) * u5;
+      }
+      // 2. The box, and the bounds of every component's log weight over it.
+      const Intervals bx = wrapped_box(&in[0], n, kInputs, k.width);
+      const Intervals by = wrapped_box(&in[1], n, kInputs, k.height);
+      std::array<float, kInputs> lo{}, hi{};
+      for (int d = 2; d < kInputs; ++d) {
+        lo[std::size_t(d)] = hi[std::size_t(d)] = in[std::size_t(d)];
+        for (int i = 1; i < n; ++i) {
+          lo[std::size_t(d)] = std::min(lo[std::size_t(d)], in[std::size_t(i * kInputs + d)]);
+          hi[std::size_t(d)] = std::max(hi[std::size_t(d)], in[std::size_t(i * kInputs + d)]);
+        }
+      }
+      std::size_t kept = 0;
+      double r = 0.0, lmax = 0.0;
+      const bool cull = k.cull;
+      if (cull) {
+        bound_log_weights(k, bx, by, lo, hi, upper.data(), lower.data(), scratch.data());
+        kept = select_components(k, in.data(), n, upper.data(), lower.data(), keep.data(),
+                                 bucket.data(), r, lmax);
+      } else {
+        for (std::size_t j = 0; j < M; ++j) keep[kept++] = std::uint32_t(j);
+      }
+      // 3. Gather the kept components.
+      const std::size_t na = kept;
+      float* gs[kInputs];
+      float* go[kInputs];
+      for (int d = 0; d < kInputs; ++d) {
+        gs[d] = &g[std::size_t(d) * na];
+        go[d] = &g[std::size_t(kInputs + d) * na];
+      }
+      float* gb = &g[std::size_t(2 * kInputs) * na];
+      float* gc0 = &g[std::size_t(2 * kInputs + 1) * na];
+      float* gc1 = &g[std::size_t(2 * kInputs + 2) * na];
+      float* gc2 = &g[std::size_t(2 * kInputs + 3) * na];
+      // One pass with the block's reference r when every point's largest term is then far
+      // from underflow (r - Lmax <= 56 in log2 units), else a per-point maximum.
+      const bool one_pass = cull && r - lmax <= 56.0;
+      const float ref = one_pass ? float(r) : 0.0f;
+      for (std::size_t row = 0; row < 16; ++row) {
+        const float* __restrict src = &k.packed[row * M];
+        float* __restrict dst = &g[row * na];
+        const std::uint32_t* __restrict idx = keep.data();
+#pragma omp simd
+        for (std::size_t a = 0; a < na; ++a) dst[a] = src[idx[a]];
+      }
+#pragma omp simd
+      for (std::size_t a = 0; a < na; ++a) gb[a] -= ref;
+      evaluated += std::uint64_t(na) * std::uint64_t(n);
+      const Gathered gathered{{gs[0], gs[1], gs[2], gs[3], gs[4], gs[5]},
+                              {go[0], go[1], go[2], go[3], go[4], go[5]},
+                              gb,
+                              {gc0, gc1, gc2},
+                              na};
+      for (int i = 0; i < n; ++i) {
+        const float* x = &in[std::size_t(i) * kInputs];
+        Sums sums;
+        if (one_pass) {
+          sums = sum_weights(gathered, x);
+        } else {
+          const float mx = log_weights(gathered, x, t.data());
+          sums = sum_exp(gathered, t.data(), mx);
+        }
+        const float sum = sums.sum, c0 = sums.c0, c1 = sums.c1, c2 = sums.c2;
+        // Eq. (11): the conditional expectation plus the mean BRDF at these directions.
+        const SurfacePoint& p = points[p0 + std::size_t(i)];
+        const auto wl = k.lights_interp.weights(Vec3{p.light[0], p.light[1], p.light[2]}, hint_l);
+        const auto wv = k.views_interp.weights(Vec3{p.view[0], p.view[1], p.view[2]}, hint_v);
+        std::array<double, 3> mb{0, 0, 0};
+        for (int a = 0; a < 3; ++a)
+          for (int b = 0; b < 3; ++b) {
+            const double w = wl.weight[std::size_t(a)] * wv.weight[std::size_t(b)];
+            if (w == 0.0) continue;
+            const float* v =
+                &k.mean_brdf[(wl.index[std::size_t(a)] * k.views + wv.index[std::size_t(b)]) * 3];
+            for (int c = 0; c < 3; ++c) mb[std::size_t(c)] += w * v[c];
+          }
+        float* o = &rgb[(p0 + std::size_t(i)) * 3];
+        o[0] = float(double(c0 / sum) * k.unit[6] + double(float(mb[0])));
+        o[1] = float(double(c1 / sum) * k.unit[7] + double(float(mb[1])));
+        o[2] = float(double(c2 / sum) * k.unit[8] + double(float(mb[2])));
+      }
+    }
+  }
+  EvaluationStats st;
+  st.points = points.size();
+  st.nominal = std::uint64_t(points.size()) * std::uint64_t(M);
+  st.evaluated = evaluated;
+  st.seconds = since(t0);
+  return st;
+}
+
+// ---- the data -----------------------------------------------------------------------------
+
+struct DataEvaluator::Impl {
+  const Btf* btf;
+  FastDirectionInterpolator lights, views;
+  explicit Impl(const Btf& b) : btf(&b), lights(b.lights()), views(b.views()) {}
+};
+
+DataEvaluator::DataEvaluator(const Btf& btf) {
+  if (btf.width() < 1 || btf.height() < 1 || btf.image_count() == 0)
+    throw Error(Error::Kind::kArgument, "render: the measured data is empty");
+  impl_ = std::make_unique<Impl>(btf);
+}
+DataEvaluator::~DataEvaluator() = default;
+DataEvaluator::DataEvaluator(DataEvaluator&&) noexcept = default;
+DataEvaluator& DataEvaluator::operator=(DataEvaluator&&) noexcept = default;
+
+EvaluationStats DataEvaluator::evaluate(std::span<const SurfacePoint> points,
+                                        std::span<float> rgb) const {
+  if (rgb.size() < points.size() * 3)
+    throw Error(Error::Kind::kArgument, "evaluate: the output holds fewer than 3 floats a point");
+  const auto t0 = Clock::now();
+  const Btf& b = *impl_->btf;
+  const int W = b.width(), H = b.height();
+  const std::ptrdiff_t n = std::ptrdiff_t(points.size());
+#pragma omp parallel
+  {
+    std::uint32_t hint_l = std::numeric_limits<std::uint32_t>::max(), hint_v = hint_l;
+#pragma omp for schedule(dynamic, 256)
+    for (std::ptrdiff_t i = 0; i < n; ++i) {
+      const SurfacePoint& p = points[std::size_t(i)];
+      const auto wl = impl_->lights.weights(Vec3{p.light[0], p.light[1], p.light[2]}, hint_l);
+      const auto wv = impl_->views.weights(Vec3{p.view[0], p.view[1], p.view[2]}, hint_v);
+      // Bilinear between the pixels around (x, y), pixel centres at whole coordinates.
+      const double x = wrap(p.x, W), y = wrap(p.y, H);
+      const int xa = int(std::floor(x)) % W, ya = int(std::floor(y)) % H;
+      const int xb = (xa + 1) % W, yb = (ya + 1) % H;
+      const double fx = x - std::floor(x), fy = y - std::floor(y);
+      const std::size_t o00 = (std::size_t(ya) * std::size_t(W) + std::size_t(xa)) * 3,
+                        o10 = (std::size_t(ya) * std::size_t(W) + std::size_t(xb)) * 3,
+                        o01 = (std::size_t(yb) * std::size_t(W) + std::size_t(xa)) * 3,
+                        o11 = (std::size_t(yb) * std::size_t(W) + std::size_t(xb)) * 3;
+      const double w00 = (1 - fx) * (1 - fy), w10 = fx * (1 - fy), w01 = (1 - fx) * fy,
+                   w11 = fx * fy;
+      std::array<double, 3> c{0, 0, 0};
+      for (int a = 0; a < 3; ++a)
+        for (int bb = 0; bb < 3; ++bb) {
+          const double w = wl.weight[std::size_t(a)] * wv.weight[std::size_t(bb)];
+          if (w == 0.0) continue;
+          const float* img = b.image(wl.index[std::size_t(a)], wv.index[std::size_t(bb)]);
+          for (int ch = 0; ch < 3; ++ch)
+            c[std::size_t(ch)] +=
+                w * (w00 * img[o00 + std::size_t(ch)] + w10 * img[o10 + std::size_t(ch)] +
+                     w01 * img[o01 + std::size_t(ch)] + w11 * img[o11 + std::size_t(ch)]);
+        }
+      for (int ch = 0; ch < 3; ++ch)
+        rgb[std::size_t(i) * 3 + std::size_t(ch)] = float(c[std::size_t(ch)]);
+    }
+  }
+  EvaluationStats st;
+  st.points = points.size();
+  st.nominal = st.evaluated = std::uint64_t(points.size()) * 36;
+  st.seconds = since(t0);
+  return st;
+}
+
+}  // namespace btfgmm

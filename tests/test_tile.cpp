@@ -1,0 +1,97 @@
+// The seamless-tile search: it finds the period of generated periodic textures, and its tile
+// has a lower seam error than tiles cut elsewhere.
+#include <gtest/gtest.h>
+
+#include <random>
+#include <string>
+
+#include "btfgmm/btfgmm.hpp"
+#include "btfgmm/tile.hpp"
+
+namespace {
+
+using namespace btfgmm;
+
+Btf periodic(const std::string& material, int size) {
+  GenerateConfig g;
+  g.material = material;
+  g.size = size;
+  g.seed = 9;
+  g.lights = DirectionSet::parse("rings:0/1,30/4,60/6");
+  g.views = DirectionSet::parse("rings:0/1,45/5");
+  g.supersample = 1;
+  return generate(g);
+}
+
+TEST(Tile, FindsTheWalePeriodOfCorduroy) {
+  // Corduroy of 64 pixels has 8 wales of 8 pixels across x (with a small per-wale jitter).
+  const Btf btf = periodic("corduroy", 64);
+  TileSearchConfig c;
+  c.min_width = 18;
+  c.max_width = 30;
+  c.min_height = c.max_height = 24;
+  c.images = 16;
+  const TileSearchResult r = find_seamless_tile(btf, c);
+  EXPECT_EQ(r.tile.width % 8, 0) << "width " << r.tile.width;
+  EXPECT_EQ(r.tile.height, 24);
+  EXPECT_EQ(r.images, 16u);
+  // Widths 18..30 at every x, one height at every y: 41 * (47 + 46 + ... + 35).
+  EXPECT_EQ(r.candidates, 41u * 533u);
+  // The found tile against tiles of the same size elsewhere and tiles of other widths.
+  std::mt19937 rng(3);
+  std::uniform_int_distribution<int> w(18, 30), pos(0, 64 - 31);
+  int worse = 0;
+  for (int i = 0; i < 40; ++i) {
+    const Tile t{pos(rng), pos(rng), w(rng), 24};
+    const SeamError e = seam_error(btf, t, 16);
+    EXPECT_GE(e.total, r.seam.total);
+    worse += t.width % 8 != 0 && e.total > 2.0 * r.seam.total;
+  }
+  EXPECT_GT(worse, 20);  // most tiles off the period are clearly worse
+  const SeamError again = seam_error(btf, r.tile, 16);
+  EXPECT_DOUBLE_EQ(again.total, r.seam.total);
+  EXPECT_LT(r.seam.left_right, 0.5);
+}
+
+TEST(Tile, FindsBothPeriodsOfKnit) {
+  // Knit of 40 pixels: 4 x 4 stitches of 10 pixels.
+  const Btf btf = periodic("knit", 40);
+  TileSearchConfig c;
+  c.min_width = c.min_height = 13;
+  c.max_width = c.max_height = 27;
+  c.images = 16;
+  const TileSearchResult r = find_seamless_tile(btf, c);
+  EXPECT_EQ(r.tile.width, 20);
+  EXPECT_EQ(r.tile.height, 20);
+  EXPECT_EQ(r.images, 16u);
+  const SeamError off = seam_error(btf, {r.tile.x + 3, r.tile.y, 17, 20}, 16);
+  EXPECT_GT(off.left_right, 3.0 * r.seam.left_right);
+}
+
+TEST(Tile, ParsesSizesAndRejectsNonsense) {
+  TileSearchConfig c = parse_tile_search_size("20-28x24", "--size");
+  EXPECT_EQ(c.min_width, 20);
+  EXPECT_EQ(c.max_width, 28);
+  EXPECT_EQ(c.min_height, 24);
+  EXPECT_EQ(c.max_height, 24);
+  c = parse_tile_search_size("32x16", "--size");
+  EXPECT_EQ(c.max_width, 32);
+  EXPECT_EQ(c.min_height, 16);
+  for (const char* bad : {"32", "x4", "28-20x4", "0x4", "ax4", "4x4-"}) {
+    try {
+      parse_tile_search_size(bad, "--size");
+      ADD_FAILURE() << bad;
+    } catch (const Error& e) {
+      EXPECT_EQ(e.kind(), Error::Kind::kArgument);
+      EXPECT_NE(std::string(e.what()).find("--size"), std::string::npos) << e.what();
+    }
+  }
+  const Btf btf = periodic("bumps", 16);
+  TileSearchConfig whole;
+  whole.min_width = whole.max_width = 16;
+  whole.min_height = whole.max_height = 8;
+  EXPECT_THROW(find_seamless_tile(btf, whole), Error);
+  EXPECT_THROW(seam_error(btf, {10, 0, 8, 8}), Error);  // outside
+}
+
+}  // namespace
