@@ -110,7 +110,6 @@ void info_model(const std::string& path, bool json) {
     j["epsilon"] = s.epsilon;
     j["seed"] = s.seed;
     j["log_likelihood"] = s.log_likelihood;
-    j["fit_seconds"] = s.seconds;
     j["precision"] = m.precision == btfgmm::Precision::kF16 ? "f16" : "f32";
     j["file_bytes"] = bytes;
     j["compression_ratio_paper"] = m.compression_ratio_paper();
@@ -127,8 +126,8 @@ void info_model(const std::string& path, bool json) {
   fmt::print("  views        {}\n", describe_set(m.views));
   fmt::print("  components   M = {} ({} requested, {} dropped by EM)\n", m.mixture.size(),
              s.components, s.dropped);
-  fmt::print("  fit          {} of at most {} iterations, epsilon {:g}, seed {}, {}\n",
-             s.iterations, s.max_iterations, s.epsilon, s.seed, human_seconds(s.seconds));
+  fmt::print("  fit          {} of at most {} iterations, epsilon {:g}, seed {}\n", s.iterations,
+             s.max_iterations, s.epsilon, s.seed);
   fmt::print("  log-lik.     {:.6f} per sample (model units)\n", s.log_likelihood);
   fmt::print("  file         {} bytes ({})\n", bytes, human_bytes(double(bytes)));
   fmt::print("  compression  1:{:.1f} by the paper's count, 1:{:.1f} by the file's bytes\n",

@@ -1,6 +1,10 @@
 // btfgmm fit, decode and eval.
 #include <fmt/format.h>
 
+#include <atomic>
+#include <csignal>
+#include <optional>
+
 #include <filesystem>
 #include <iostream>
 #include <memory>
@@ -9,6 +13,7 @@
 #include "btfgmm/model.hpp"
 #include "cli_util.hpp"
 #include "commands.hpp"
+#include "tile_option.hpp"
 
 namespace btfgmm::cli {
 namespace {
@@ -25,17 +30,51 @@ struct FitOptions {
   std::uint64_t seed = 1;
   int threads = 0;
   bool overwrite = false, quiet = false;
+  std::string checkpoint, resume;
+  int checkpoint_every = 1;
 };
 
-void run_fit(const FitOptions& o) {
+// Set by SIGINT / SIGTERM: the fit stops after the iteration under way and saves its state.
+std::atomic<bool> g_stop{false};
+extern "C" void on_stop_signal(int) {
+  g_stop.store(true);
+}
+
+void run_fit(FitOptions o) {
+  std::optional<btfgmm::FitCheckpoint> resumed;
+  btfgmm::Tile tile;
+  if (!o.resume.empty()) {
+    // Everything comes from the checkpoint; the output it names is this fit's own.
+    resumed = btfgmm::load_checkpoint(o.resume);
+    o.input = resumed->input;
+    o.out = resumed->output;
+    o.components = resumed->components;
+    o.seed = resumed->seed;
+    o.iterations = resumed->max_iterations;
+    o.epsilon = resumed->epsilon;
+    o.precision = resumed->precision == btfgmm::Precision::kF16 ? "f16" : "f32";
+    o.overwrite = true;
+    if (o.checkpoint.empty()) o.checkpoint = o.resume;
+  } else if (o.input.empty() || o.out.empty()) {
+    throw Error(Error::Kind::kArgument,
+                "fit needs an input BTF and -o MODEL (or --resume CHECKPOINT to continue an "
+                "interrupted fit)");
+  }
   if (o.precision != "f32" && o.precision != "f16")
     throw Error(Error::Kind::kArgument,
                 fmt::format("--precision '{}': give f32 or f16", o.precision));
   check_output_file(o.out, o.overwrite);
+  if (!o.checkpoint.empty()) check_output_file(o.checkpoint, true);
   const auto t0 = Clock::now();
   const btfgmm::BtfSource src = btfgmm::BtfSource::open(o.input);
-  const btfgmm::Tile tile = o.tile.empty() ? btfgmm::Tile{} : parse_tile(o.tile);
+  tile = resumed ? resumed->tile : tile_option(src, o.tile, o.quiet);  // X,Y,W,H or auto:WxH
   const btfgmm::Btf btf = src.load(tile);
+  const std::uint64_t fingerprint = btfgmm::btf_fingerprint(btf);
+  if (resumed && resumed->data_fingerprint != fingerprint)
+    throw Error(Error::Kind::kArgument,
+                fmt::format("the data in '{}' is not what checkpoint '{}' was fitted to (it "
+                            "changed since); resume with the original data or fit again",
+                            o.input, o.resume));
   const std::size_t n = btf.image_count() * std::size_t(btf.width()) * btf.height();
   if (!o.quiet)
     fmt::print(stderr,
@@ -48,9 +87,13 @@ void run_fit(const FitOptions& o) {
   c.em.max_iterations = o.iterations;
   c.em.epsilon = o.epsilon;
   c.em.threads = o.threads;
+  c.em.stop = &g_stop;
+  const int first = resumed ? resumed->state.result.iterations : 0;
+  if (resumed && !o.quiet)
+    fmt::print(stderr, "resuming from {} after iteration {}\n", o.resume, first);
   auto progress = [&](const btfgmm::EmProgress& p) {
     if (o.quiet) return;
-    const double per = p.seconds / p.iteration;
+    const double per = p.seconds / std::max(1, p.iteration - first);
     fmt::print(stderr,
                "iteration {:>3}/{}  L = {:.6f}  gain {:+.2e}  components {} ({} dropped)  {}  "
                "ETA {}\n",
@@ -58,9 +101,47 @@ void run_fit(const FitOptions& o) {
                p.dropped, human_seconds(p.seconds),
                human_seconds(per * (p.max_iterations - p.iteration)));
   };
-  btfgmm::BtfModel model = btfgmm::fit_model(btf, c, progress);
+  auto checkpoint_of = [&](const btfgmm::ProductMixture& mix, const btfgmm::EmResult& r) {
+    btfgmm::FitCheckpoint k;
+    k.input = o.input;
+    k.output = o.out;
+    k.tile = btf.origin();
+    k.components = o.components;
+    k.seed = o.seed;
+    k.max_iterations = o.iterations;
+    k.epsilon = o.epsilon;
+    k.precision = o.precision == "f16" ? btfgmm::Precision::kF16 : btfgmm::Precision::kF32;
+    k.data_fingerprint = fingerprint;
+    k.state = {mix, r};
+    return k;
+  };
+  auto after_iteration = [&](const btfgmm::ProductMixture& mix, const btfgmm::EmResult& r) {
+    if (!o.checkpoint.empty() && r.iterations % std::max(1, o.checkpoint_every) == 0)
+      btfgmm::save_checkpoint(checkpoint_of(mix, r), o.checkpoint);
+  };
+  g_stop.store(false);
+  std::signal(SIGINT, on_stop_signal);
+  std::signal(SIGTERM, on_stop_signal);
+  btfgmm::FitState state;
+  btfgmm::BtfModel model = btfgmm::fit_model(btf, c, progress, resumed ? &resumed->state : nullptr,
+                                             after_iteration, &state);
+  std::signal(SIGINT, SIG_DFL);
+  std::signal(SIGTERM, SIG_DFL);
+  if (state.result.interrupted) {
+    const std::string path = o.checkpoint.empty() ? o.out + ".ckpt" : o.checkpoint;
+    btfgmm::save_checkpoint(checkpoint_of(state.mixture, state.result), path);
+    fmt::print(stderr,
+               "interrupted after iteration {} of {}; nothing is lost: the fit's state is in "
+               "{}\ncontinue with: btfgmm fit --resume {}\n",
+               state.result.iterations, o.iterations, path, path);
+    std::exit(130);
+  }
   model.precision = o.precision == "f16" ? btfgmm::Precision::kF16 : btfgmm::Precision::kF32;
   btfgmm::save_model(model, o.out);
+  if (!o.checkpoint.empty()) {
+    std::error_code ec;
+    fs::remove(o.checkpoint, ec);  // the fit is complete: the model holds its result
+  }
   const std::uint64_t bytes = fs::file_size(o.out);
   fmt::print(stderr,
              "wrote {}: M = {} ({} dropped), L = {:.6f}, {} bytes, compression 1:{:.1f} "
@@ -132,8 +213,10 @@ void run_eval(const EvalOptions& o) {
 void register_model_commands(CLI::App& app, Commands& commands) {
   auto fit = std::make_shared<FitOptions>();
   auto* f = app.add_subcommand("fit", "Fit the Gaussian mixture model to a BTF tile");
-  f->add_option("input", fit->input, "A BTF folder or Bonn .zip")->required();
-  f->add_option("--tile", fit->tile, "X,Y,W,H of the tile to fit (default: the whole image)");
+  f->add_option("input", fit->input, "A BTF folder or Bonn .zip");
+  f->add_option("--tile", fit->tile,
+                "X,Y,W,H of the tile to fit, or auto:WxH for the most seamless tile of that size "
+                "(default: the whole image)");
   f->add_option("--components,-M", fit->components, "Number of mixture components M")
       ->check(CLI::Range(std::size_t(1), std::size_t(100000)))
       ->capture_default_str();
@@ -151,7 +234,17 @@ void register_model_commands(CLI::App& app, Commands& commands) {
       ->capture_default_str();
   f->add_option("--precision", fit->precision, "Parameters stored as f32 or f16")
       ->capture_default_str();
-  f->add_option("-o,--output", fit->out, "The model file to write (.btfgmm)")->required();
+  f->add_option("-o,--output", fit->out, "The model file to write (.btfgmm)");
+  f->add_option("--checkpoint", fit->checkpoint,
+                "Save the fit's state here (atomically) every --checkpoint-every iterations and "
+                "on SIGINT/SIGTERM; removed when the model is written");
+  f->add_option("--checkpoint-every", fit->checkpoint_every, "Iterations between checkpoints")
+      ->check(CLI::Range(1, 100000))
+      ->capture_default_str();
+  f->add_option("--resume", fit->resume,
+                "Continue an interrupted fit from its checkpoint (input, tile, settings and "
+                "output come from it); the model equals an uninterrupted fit's, bit for bit")
+      ->excludes(f->get_option("input"));
   f->add_flag("--overwrite", fit->overwrite, "Replace an existing model file");
   f->add_flag("-q,--quiet", fit->quiet, "No progress on stderr");
 

@@ -342,13 +342,18 @@ int resolve_threads(int threads) {
 }  // namespace
 
 EmResult fit_em(const SampleSet& s, ProductMixture& mix, const EmConfig& config,
-                const EmCallback& progress) {
+                const EmCallback& progress, const EmResult* resume,
+                const EmStateCallback& after_iteration) {
   detail::check_em_input(s.size(), mix, config);
   const auto t0 = std::chrono::steady_clock::now();
   const int threads = resolve_threads(config.threads);
   const std::size_t pixels = s.pixels(), ni = s.lights, nv = s.views;
   EmResult result;
-  for (int it = 1; it <= config.max_iterations; ++it) {
+  if (resume) {
+    result = *resume;
+    result.interrupted = false;
+  }
+  for (int it = result.iterations + 1; it <= config.max_iterations && !result.converged; ++it) {
     const std::size_t m_count = mix.size();
     const Tables t = make_tables(s, mix);
     const std::size_t st = t.stride;
@@ -405,7 +410,11 @@ EmResult fit_em(const SampleSet& s, ProductMixture& mix, const EmConfig& config,
     result.dropped += detail::m_step(mix, s0, s1, s2, double(s.size()), config.variance_floor,
                                      config.min_component_samples);
     detail::record_iteration(result, ll, it, config, mix.size(), t0, progress);
-    if (result.converged) break;
+    if (after_iteration) after_iteration(mix, result);
+    if (config.stop && config.stop->load() && it < config.max_iterations && !result.converged) {
+      result.interrupted = true;
+      return result;
+    }
   }
   result.final_log_likelihood = e_pass(s, make_tables(s, mix), threads, nullptr, nullptr);
   return result;

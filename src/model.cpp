@@ -20,11 +20,17 @@ double BtfModel::compression_ratio_file(std::uint64_t file_bytes) const {
   return double(width) * height * pairs * 3.0 / double(file_bytes);
 }
 
-BtfModel fit_model(const Btf& btf, const FitConfig& config, const EmCallback& progress) {
+BtfModel fit_model(const Btf& btf, const FitConfig& config, const EmCallback& progress,
+                   const FitState* resume, const EmStateCallback& after_iteration,
+                   FitState* state) {
   const auto t0 = std::chrono::steady_clock::now();
   const SampleSet samples = make_sample_set(btf);
-  ProductMixture mix = initial_mixture(samples, config.components, config.seed);
-  const EmResult em = fit_em(samples, mix, config.em, progress);
+  ProductMixture mix =
+      resume ? resume->mixture : initial_mixture(samples, config.components, config.seed);
+  const EmResult em = fit_em(samples, mix, config.em, progress, resume ? &resume->result : nullptr,
+                             after_iteration);
+  if (state) *state = FitState{mix, em};
+  if (em.interrupted) return BtfModel{};
   BtfModel m;
   m.lights = btf.lights();
   m.views = btf.views();

@@ -3,6 +3,7 @@
 #pragma once
 
 #include "btfgmm/btf.hpp"
+#include "btfgmm/checkpoint.hpp"
 #include "btfgmm/dataset.hpp"
 #include "btfgmm/directions.hpp"
 #include "btfgmm/error.hpp"

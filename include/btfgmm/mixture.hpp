@@ -8,6 +8,7 @@
 #pragma once
 
 #include <array>
+#include <atomic>
 #include <cstddef>
 #include <cstdint>
 #include <functional>
@@ -44,6 +45,9 @@ struct EmConfig {
   // ("suppressed by EM"): it is dropped from the mixture.
   double min_component_samples = 1.0;
   int threads = 0;  // 0: all cores
+  // Checked after every iteration: when set, the fit stops there (EmResult::interrupted) and
+  // can be resumed from the state it returns.
+  const std::atomic<bool>* stop = nullptr;
 };
 
 // One EM iteration as it finished: L of Eq. (3) for the parameters the iteration started
@@ -64,7 +68,8 @@ struct EmResult {
   double final_log_likelihood = 0.0;   // L of the returned parameters
   int iterations = 0;
   std::size_t dropped = 0;
-  bool converged = false;  // stopped by epsilon
+  bool converged = false;    // stopped by epsilon
+  bool interrupted = false;  // stopped by EmConfig::stop; resume from the returned state
 };
 
 // The readable statement of Eq. (3)-(7) on an explicit sample matrix (N x 9, row-major, in

@@ -5,6 +5,7 @@
 #include <array>
 #include <cstdint>
 #include <filesystem>
+#include <functional>
 #include <span>
 #include <string>
 #include <vector>
@@ -66,8 +67,15 @@ ProductMixture initial_mixture(const SampleSet& samples, std::size_t components,
 // blocks, responsibilities folded into sufficient statistics at once (no N x M matrix).
 // Statistics are accumulated per fixed chunk of pixels and reduced in a fixed order, so the
 // result does not depend on the number of threads.
+//
+// To resume an interrupted fit, pass the mixture and the EmResult it returned (or that a
+// checkpoint holds): iterations continue from result.iterations + 1, and the outcome is bit
+// for bit that of an uninterrupted fit. `after_iteration` is called after every M-step with
+// the state a resume needs (to write checkpoints).
+using EmStateCallback = std::function<void(const ProductMixture&, const EmResult&)>;
 EmResult fit_em(const SampleSet& samples, ProductMixture& mixture, const EmConfig& config,
-                const EmCallback& progress = {});
+                const EmCallback& progress = {}, const EmResult* resume = nullptr,
+                const EmStateCallback& after_iteration = {});
 
 enum class Precision : std::uint32_t { kF32 = 0, kF16 = 1 };
 
@@ -79,7 +87,7 @@ struct FitSettings {
   std::uint32_t iterations = 0;  // run
   std::uint32_t dropped = 0;     // components dropped by EM
   double log_likelihood = 0.0;   // final mean log-likelihood (model units)
-  double seconds = 0.0;          // fit time
+  double seconds = 0.0;          // fit time (not stored in the model file: files are reproducible)
 };
 
 // Everything evaluation needs.
@@ -107,8 +115,19 @@ struct FitConfig {
   EmConfig em;
 };
 
-// Mean BRDF, samples, initialisation and EM on a BTF tile.
-BtfModel fit_model(const Btf& btf, const FitConfig& config, const EmCallback& progress = {});
+// Where an interrupted fit stands: the mixture after result.iterations iterations.
+struct FitState {
+  ProductMixture mixture;
+  EmResult result;
+};
+
+// Mean BRDF, samples, initialisation and EM on a BTF tile. With `resume`, EM continues from
+// that state instead of a fresh initialisation (the same tile and settings are the caller's
+// to check: see checkpoint.hpp). `after_iteration` as for fit_em. If the fit was interrupted
+// (config.em.stop), *state receives where it stands and the returned model is empty.
+BtfModel fit_model(const Btf& btf, const FitConfig& config, const EmCallback& progress = {},
+                   const FitState* resume = nullptr, const EmStateCallback& after_iteration = {},
+                   FitState* state = nullptr);
 
 // ---- prediction, Eq. (8)-(11) -------------------------------------------------------------
 
