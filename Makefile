@@ -6,7 +6,7 @@ JOBS ?= $(shell nproc 2>/dev/null || echo 2)
 WERROR ?= $(if $(filter true 1 yes,$(CI)),ON,OFF)
 CMAKE_ARGS ?=
 
-.PHONY: all deps configure build demo test asan format clean
+.PHONY: all deps configure build demo test bench asan format clean
 
 all: build
 
@@ -25,12 +25,28 @@ demo: build
 test: build
 	@cd $(BUILD) && ctest --output-on-failure -j$(JOBS)
 
-# The test suite under AddressSanitizer and UndefinedBehaviorSanitizer.
+# Speed and memory against Armadillo's gmm_diag, then the paper's full workload (64 x 64 tile,
+# M = 600, 40 iterations). Minutes; docs/BENCHMARKS.md keeps the figures.
+bench: build
+	@$(BUILD)/bench_fit --tile 12 --components 600 --iterations 5
+	@$(BUILD)/bench_fit --size 64 --tile 64 --components 600 --iterations 40 --no-peer
+
+# The test suite under AddressSanitizer and UndefinedBehaviorSanitizer, in build-asan. With
+# ASAN_TESTS (a ctest -R regular expression), only the tests it matches, building only the
+# test binary and the command (CI does this).
+ASAN_TESTS ?=
+ASAN_ARGS = -DBTFGMM_ASAN=ON -DCMAKE_BUILD_TYPE=RelWithDebInfo
 asan:
-	@$(MAKE) --no-print-directory test BUILD=build-asan CMAKE_ARGS="-DBTFGMM_ASAN=ON -DCMAKE_BUILD_TYPE=RelWithDebInfo"
+ifeq ($(ASAN_TESTS),)
+	@$(MAKE) --no-print-directory test BUILD=build-asan CMAKE_ARGS="$(ASAN_ARGS)"
+else
+	@$(MAKE) --no-print-directory configure BUILD=build-asan CMAKE_ARGS="$(ASAN_ARGS) -DBTFGMM_BENCH=OFF"
+	@cmake --build build-asan -j$(JOBS) --target btfgmm_tests btfgmm_cli
+	@cd build-asan && ctest --output-on-failure -j$(JOBS) -R '$(ASAN_TESTS)'
+endif
 
 format:
 	@clang-format -i $$(git ls-files '*.cpp' '*.hpp')
 
 clean:
-	@rm -rf $(BUILD) build-asan out
+	@rm -rf $(BUILD) build-asan build-fuzz out
