@@ -2,11 +2,15 @@
 // counts for people, output-folder checks.
 #pragma once
 
+#include <fcntl.h>
 #include <fmt/format.h>
+#include <unistd.h>
 
+#include <cerrno>
 #include <charconv>
 #include <chrono>
 #include <cmath>
+#include <cstring>
 #include <filesystem>
 #include <nlohmann/json.hpp>
 #include <set>
@@ -101,6 +105,24 @@ inline std::string human_seconds(double s) {
   return fmt::format("{}:{:02d}:{:02d}", t / 3600, (t / 60) % 60, t % 60);
 }
 
+// That a file can be created in the folder `dir` (a probe file, removed at once), so a
+// read-only file system or a folder such as /proc is reported before any work is done.
+inline void check_writable_folder(const std::filesystem::path& dir,
+                                  const std::filesystem::path& out) {
+  const std::filesystem::path probe = dir / fmt::format(".btfgmm-probe-{}", ::getpid());
+  const int fd = ::open(probe.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0600);
+  if (fd < 0) {
+    const int err = errno;
+    if (err == EEXIST) return;  // another btfgmm of this id is probing: it is writable
+    throw Error(Error::Kind::kIo,
+                fmt::format("cannot write '{}': no file can be created in the folder '{}' ({}); "
+                            "give an output path in a folder you can write to",
+                            out.string(), dir.string(), std::strerror(err)));
+  }
+  ::close(fd);
+  ::unlink(probe.c_str());
+}
+
 // An output folder may be new or empty; a non-empty one only with --overwrite.
 inline void check_output_folder(const std::filesystem::path& out, bool overwrite) {
   std::error_code ec;
@@ -108,6 +130,18 @@ inline void check_output_folder(const std::filesystem::path& out, bool overwrite
     throw Error(Error::Kind::kArgument,
                 fmt::format("output '{}' exists and is not a folder; give a new folder name",
                             out.string()));
+  // The folder itself, or the nearest folder above it that exists (it will be created there).
+  std::filesystem::path dir = out;
+  while (!dir.empty() && !std::filesystem::exists(dir, ec) && dir.has_parent_path() &&
+         dir.parent_path() != dir)
+    dir = dir.parent_path();
+  if (dir.empty() || !std::filesystem::exists(dir, ec)) dir = ".";
+  if (!std::filesystem::is_directory(dir, ec))
+    throw Error(Error::Kind::kArgument,
+                fmt::format("cannot write the folder '{}': '{}' is a file, not a folder; give "
+                            "an output path in a folder",
+                            out.string(), dir.string()));
+  check_writable_folder(dir, out);
   if (std::filesystem::is_directory(out, ec) && !std::filesystem::is_empty(out, ec) && !overwrite)
     throw Error(Error::Kind::kArgument,
                 fmt::format("output folder '{}' is not empty; give a new folder or add "
@@ -121,12 +155,21 @@ inline void check_output_file(const std::filesystem::path& out, bool overwrite) 
   const auto dir = out.parent_path().empty() ? std::filesystem::path(".") : out.parent_path();
   if (!std::filesystem::is_directory(dir, ec))
     throw Error(Error::Kind::kArgument,
-                fmt::format("cannot write '{}': the folder '{}' does not exist; create it first",
-                            out.string(), dir.string()));
+                std::filesystem::exists(dir, ec)
+                    ? fmt::format("cannot write '{}': '{}' is a file, not a folder; give an "
+                                  "output path in a folder",
+                                  out.string(), dir.string())
+                    : fmt::format("cannot write '{}': the folder '{}' does not exist; create it "
+                                  "first",
+                                  out.string(), dir.string()));
+  if (std::filesystem::is_directory(out, ec))
+    throw Error(Error::Kind::kArgument,
+                fmt::format("cannot write '{}': it is a folder; give a file name", out.string()));
   if (std::filesystem::exists(out, ec) && !overwrite)
     throw Error(
         Error::Kind::kArgument,
         fmt::format("'{}' exists; give a new name or add --overwrite to replace it", out.string()));
+  check_writable_folder(dir, out);
 }
 
 using Clock = std::chrono::steady_clock;

@@ -5,6 +5,7 @@
 #include <limits>
 
 #include "btfgmm/error.hpp"
+#include "limits.hpp"
 
 namespace btfgmm {
 
@@ -42,6 +43,9 @@ Btf::Btf(DirectionSet lights, DirectionSet views, int width, int height, SampleF
                 fmt::format("BTF of {} images of {}x{} pixels is too large to hold in memory; "
                             "load a smaller tile",
                             image_count(), width, height));
+  limits::check_memory(
+      floats * 4.0, fmt::format("a BTF of {} images of {}x{} pixels", image_count(), width, height),
+      "use a smaller tile or image size, or fewer directions");
   data_.assign(image_count() * image_floats(), 0.0f);
 }
 

@@ -22,6 +22,7 @@
 #include <utility>
 
 #include "btfgmm/error.hpp"
+#include "limits.hpp"
 
 namespace btfgmm {
 namespace {
@@ -181,6 +182,19 @@ std::vector<std::uint8_t> read_zip_entry(zip_t* z, const fs::path& zip, const st
     throw Error(Error::Kind::kFormat,
                 fmt::format("{} is {} bytes uncompressed, too large for a BTF image",
                             entry_display(zip, entry), st.size));
+  // What the entry's stored bytes can hold: deflate expands at most 1032 times, a stored
+  // entry not at all. (Other methods are bounded by the check above and the memory's.)
+  if ((st.valid & ZIP_STAT_COMP_SIZE) && (st.valid & ZIP_STAT_COMP_METHOD) &&
+      ((st.comp_method == ZIP_CM_STORE && st.size > st.comp_size) ||
+       (st.comp_method == ZIP_CM_DEFLATE &&
+        double(st.size) > limits::kDeflateMaxRatio * double(st.comp_size) + 1032.0)))
+    throw Error(Error::Kind::kFormat,
+                fmt::format("{} claims {} bytes uncompressed from {} stored bytes, more than "
+                            "they can hold; the archive is corrupt, download it again",
+                            entry_display(zip, entry), st.size, st.comp_size));
+  limits::check_memory(
+      double(st.size), fmt::format("reading {} ({} bytes)", entry_display(zip, entry), st.size),
+      "the archive is corrupt, or the entry too large for this machine", Error::Kind::kFormat);
   zip_file_t* f = zip_fopen_index(z, zip_uint64_t(index), 0);
   if (!f)
     throw Error(Error::Kind::kIo, fmt::format("cannot read {}: libzip: {}",
@@ -205,6 +219,12 @@ std::vector<std::uint8_t> read_file(const fs::path& path) {
                                                err ? std::strerror(err) : "it ended early"));
   };
   if (!f) throw fail(errno);
+  // The file's size, checked before reading it whole.
+  std::error_code ec;
+  const std::uintmax_t size = fs::file_size(path, ec);
+  if (!ec)
+    limits::check_memory(double(size), fmt::format("reading {} ({} bytes)", path.string(), size),
+                         "it is not a BTF image; move it out of the folder", Error::Kind::kIo);
   std::vector<std::uint8_t> bytes;
   std::size_t used = 0;
   for (;;) {
@@ -364,6 +384,14 @@ BtfSource BtfSource::open(const fs::path& path) {
   if (zip) {
     Zip z = open_zip(path);
     const zip_int64_t n = zip_get_num_entries(z.get(), 0);
+    // Every entry has a central directory record of at least 46 bytes.
+    std::error_code size_ec;
+    const std::uintmax_t zip_bytes = fs::file_size(path, size_ec);
+    if (n < 0 || (!size_ec && std::uintmax_t(n) > zip_bytes / 46))
+      throw Error(Error::Kind::kFormat,
+                  fmt::format("{} claims {} entries, more than its {} bytes can hold; the "
+                              "archive is corrupt, download it again",
+                              path.string(), n, zip_bytes));
     for (zip_int64_t i = 0; i < n; ++i) {
       zip_stat_t st;
       zip_stat_init(&st);
@@ -464,40 +492,41 @@ BtfSource BtfSource::open(const fs::path& path) {
   info.lights = DirectionSet(lights);
   info.views = DirectionSet(views);
 
-  // 4. One image per pair.
+  // 4. One image per pair. The pairs found are indexed first (nl x nv may be far more than
+  // the files: a table of every pair is only made once each has its image).
   const std::size_t nl = lights.size(), nv = views.size();
-  std::vector<const Found*> by_pair(nl * nv, nullptr);
+  std::map<std::size_t, const Found*> present;
   for (const Found& f : found) {
     const std::size_t i = light_index.at(key(f.name.light)) * nv + view_index.at(key(f.name.view));
-    if (by_pair[i])
+    const auto [at, fresh] = present.emplace(i, &f);
+    if (!fresh)
       throw Error(
           Error::Kind::kFormat,
           fmt::format("two images for light {} and view {}: {} and {}; keep one and "
                       "remove the other",
                       angles(f.name.light, "tl", "pl", ' '), angles(f.name.view, "tv", "pv", ' '),
-                      by_pair[i]->display, f.display));
-    by_pair[i] = &f;
+                      at->second->display, f.display));
   }
   std::vector<std::string> missing;
-  std::size_t n_missing = 0;
+  const std::size_t n_missing = nl * nv - present.size();
   const std::string ext = fs::path(found.front().rel).extension().string();
-  for (std::size_t l = 0; l < nl; ++l)
-    for (std::size_t v = 0; v < nv; ++v) {
-      if (by_pair[l * nv + v]) continue;
-      if (++n_missing > 5) continue;
-      const std::string stem = utia_image_stem(lights[l], views[v]);
-      switch (info.layout) {
-        case Layout::kUtiaNested:
-          missing.push_back(angles(views[v], "tv", "pv", '_') + "/" + stem + ext);
-          break;
-        case Layout::kUtiaFlat:
-          missing.push_back(stem + ext);
-          break;
-        default:
-          missing.push_back(fmt::format("'NNNNN {} {}{}'", angles(lights[l], "tl", "pl", ' '),
-                                        angles(views[v], "tv", "pv", ' '), ext));
-      }
+  // The first five missing pairs lie within the first present.size() + 5 indices.
+  for (std::size_t i = 0; i < nl * nv && missing.size() < 5 && n_missing > 0; ++i) {
+    if (present.count(i)) continue;
+    const std::size_t l = i / nv, v = i % nv;
+    const std::string stem = utia_image_stem(lights[l], views[v]);
+    switch (info.layout) {
+      case Layout::kUtiaNested:
+        missing.push_back(angles(views[v], "tv", "pv", '_') + "/" + stem + ext);
+        break;
+      case Layout::kUtiaFlat:
+        missing.push_back(stem + ext);
+        break;
+      default:
+        missing.push_back(fmt::format("'NNNNN {} {}{}'", angles(lights[l], "tl", "pl", ' '),
+                                      angles(views[v], "tv", "pv", ' '), ext));
     }
+  }
   if (n_missing)
     throw Error(Error::Kind::kFormat,
                 fmt::format("{}: {} of the {} images ({} lights x {} views, the directions "
@@ -513,6 +542,8 @@ BtfSource BtfSource::open(const fs::path& path) {
                               path.string(), found.front().display, f.display));
   info.image_format = found.front().format;
 
+  std::vector<const Found*> by_pair(nl * nv, nullptr);
+  for (const auto& [i, f] : present) by_pair[i] = f;
   src.names_.resize(nl * nv);
   std::vector<std::string> displays(nl * nv);
   for (std::size_t i = 0; i < by_pair.size(); ++i) {
@@ -564,6 +595,11 @@ Btf BtfSource::load(const Tile& tile) const {
                             "y + height <= {}",
                             t.x, t.y, t.width, t.height, info.path.string(), info.width,
                             info.height, info.width, info.height));
+  const std::size_t images = info.lights.size() * info.views.size();
+  limits::check_memory(double(images) * t.width * t.height * 12.0,
+                       fmt::format("loading a {}x{} tile of the {} images of {}", t.width, t.height,
+                                   images, info.path.string()),
+                       "give a smaller tile (btfgmm fit --tile X,Y,W,H)");
   Btf btf(info.lights, info.views, t.width, t.height, info.format);
   btf.set_origin(t);
   const std::size_t nv = info.views.size();

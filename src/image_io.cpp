@@ -29,6 +29,7 @@
 #include <system_error>
 
 #include "btfgmm/error.hpp"
+#include "limits.hpp"
 
 namespace btfgmm {
 namespace {
@@ -41,8 +42,11 @@ constexpr std::array<std::uint8_t, 4> kExrMagic = {0x76, 0x2f, 0x31, 0x01};
 
 // Images larger than this are refused before any allocation (a corrupt header must not make
 // us allocate terabytes). BTF images are a few hundred pixels on a side.
-constexpr int kMaxSide = 1 << 16;
-constexpr std::int64_t kMaxPixels = std::int64_t(1) << 28;
+constexpr int kMaxSide = limits::kMaxImageSide;
+constexpr std::int64_t kMaxPixels = limits::kMaxImagePixels;
+
+// OpenEXR images are decoded this many scanlines at a time.
+constexpr int kExrBand = 64;
 
 // read_image_header reads this much of a file first; PNG and EXR headers and nearly every
 // JPEG SOF lie within it.
@@ -157,6 +161,88 @@ void check_jpeg_complete(std::span<const std::uint8_t> bytes, const std::string&
                           name));
 }
 
+// Before decoding (and allocating for) the size a header claims: can the file hold that many
+// pixels at all? A PNG's pixels are deflated in its IDAT chunks, which inflate to at most
+// 1032 times their size; a JPEG codes every 8x8 block of its full-resolution component with
+// at least one bit. A corrupt header claiming a huge image is refused here.
+void check_data_holds(std::span<const std::uint8_t> bytes, ImageFormat f, int w, int h,
+                      const std::string& name) {
+  double need = 0.0, can = 0.0;
+  std::string what;
+  if (f == ImageFormat::kPng) {
+    // The first IHDR (stb refuses a file without one) and the IDAT bytes, chunk by chunk.
+    double bits_per_pixel = 0.0, idat = 0.0;
+    bool ihdr = false;
+    for (std::size_t pos = kPngMagic.size(); pos + 12 <= bytes.size();) {
+      const std::uint64_t len = be32(&bytes[pos]);
+      if (pos + 12 + len > bytes.size()) break;
+      const std::uint8_t* type = &bytes[pos + 4];
+      if (!ihdr && std::memcmp(type, "IHDR", 4) == 0 && len >= 13) {
+        ihdr = true;
+        const int depth = bytes[pos + 16], colour = bytes[pos + 17];
+        const int channels = colour == 2 ? 3 : colour == 4 ? 2 : colour == 6 ? 4 : 1;
+        bits_per_pixel = double(depth) * channels;
+      }
+      if (std::memcmp(type, "IDAT", 4) == 0) idat += double(len);
+      pos += 12 + std::size_t(len);
+    }
+    if (!ihdr) return;  // stb reports it
+    // At least ceil(bits / 8) bytes a row (interlaced images hold more: filter bytes).
+    need = double(h) * std::ceil(double(w) * std::max(bits_per_pixel, 1.0) / 8.0);
+    can = limits::kDeflateMaxRatio * idat + 1032.0;
+    what = fmt::format("{} bytes of image data", idat);
+  } else if (f == ImageFormat::kJpeg) {
+    need = std::ceil(double(w) / 8.0) * std::ceil(double(h) / 8.0);  // blocks
+    can = 8.0 * double(bytes.size());                                // bits
+    what = fmt::format("{} bytes", bytes.size());
+  }
+  if (need > can)
+    throw Error(Error::Kind::kFormat,
+                fmt::format("{} claims an image of {}x{} pixels, more than its {} can hold; "
+                            "the file is corrupt or truncated, re-copy or re-export it",
+                            name, w, h, what));
+}
+
+// The stb_image of Debian 12 (2022-09) trusts the code counts of a JPEG Huffman table (DHT):
+// more than 256 codes overrun its tables, in the header reader as in the decoder (found by
+// tests/fuzz/fuzz_image_set; checked upstream since stb_image 2.28). Every DHT segment is
+// checked here, walking the markers as stb does, before stb sees the file.
+void check_jpeg_huffman_tables(std::span<const std::uint8_t> bytes, const std::string& name) {
+  const auto at = [&](std::size_t i) -> unsigned { return i < bytes.size() ? bytes[i] : 0u; };
+  const auto be16 = [&](std::size_t i) { return at(i) << 8 | at(i + 1); };
+  std::size_t pos = 2;  // after SOI
+  while (pos < bytes.size()) {
+    if (bytes[pos] != 0xff) {  // stb skips bytes until a marker
+      ++pos;
+      continue;
+    }
+    while (pos < bytes.size() && bytes[pos] == 0xff) ++pos;  // fill bytes
+    if (pos >= bytes.size()) return;
+    const unsigned m = bytes[pos++];
+    if (m == 0x00 || m == 0x01 || m == 0xd8 || m == 0xd9 || (m >= 0xd0 && m <= 0xd7)) continue;
+    const std::size_t length = be16(pos);  // includes its own two bytes
+    if (m == 0xc4) {
+      std::size_t p = pos + 2;
+      const std::size_t end = pos + length;
+      while (p < end && p < bytes.size()) {
+        std::size_t n = 0;
+        for (std::size_t i = 0; i < 16; ++i) n += at(p + 1 + i);
+        if (n > 256)
+          throw Error(Error::Kind::kFormat,
+                      fmt::format("{} is a corrupt JPEG (a Huffman table holds {} codes, at most "
+                                  "256 are possible); re-copy or re-export the file",
+                                  name, n));
+        p += 17 + n;
+      }
+    }
+    pos += std::max<std::size_t>(length, 2);
+    if (m == 0xda)  // entropy-coded data up to the next marker (FF, then not 00 or RSTn)
+      while (pos + 1 < bytes.size() && !(bytes[pos] == 0xff && bytes[pos + 1] != 0x00 &&
+                                         !(bytes[pos + 1] >= 0xd0 && bytes[pos + 1] <= 0xd7)))
+        ++pos;
+  }
+}
+
 int checked_len(std::span<const std::uint8_t> bytes, const std::string& name) {
   if (bytes.size() > std::size_t(std::numeric_limits<int>::max()))
     throw Error(
@@ -175,6 +261,7 @@ std::string stb_reason() {
 ImageHeader stb_header(std::span<const std::uint8_t> bytes, ImageFormat f,
                        const std::string& name) {
   const int len = checked_len(bytes, name);
+  if (f == ImageFormat::kJpeg) check_jpeg_huffman_tables(bytes, name);
   int w = 0, h = 0, comp = 0;
   if (!stbi_info_from_memory(bytes.data(), len, &w, &h, &comp))
     throw Error(Error::Kind::kFormat,
@@ -198,6 +285,13 @@ Image stb_decode(std::span<const std::uint8_t> bytes, ImageFormat f, const std::
   check_tile(t, hdr.width, hdr.height, name);
   if (f == ImageFormat::kPng) check_png_complete(bytes, name);
   if (f == ImageFormat::kJpeg) check_jpeg_complete(bytes, name);
+  check_data_holds(bytes, f, hdr.width, hdr.height, name);
+  // stb's decoded image (8 or 16 bits a sample) and the tile as floats.
+  const double sample_bytes = hdr.format == SampleFormat::kLdr16 ? 2.0 : 1.0;
+  limits::check_memory(
+      double(hdr.width) * hdr.height * 3.0 * sample_bytes + double(t.width) * t.height * 12.0,
+      fmt::format("decoding {} ({}x{} pixels)", name, hdr.width, hdr.height),
+      "the file is corrupt, or too large for this machine", Error::Kind::kFormat);
 
   const int len = static_cast<int>(bytes.size());
   int w = 0, h = 0, comp = 0;
@@ -366,6 +460,17 @@ ImageHeader exr_header(std::span<const std::uint8_t> bytes, const std::string& n
 }
 
 Image exr_decode(std::span<const std::uint8_t> bytes, const std::string& name, const Tile& rows) {
+  // The header first: OpenEXR sizes its tables by the data window, so an absurd one is
+  // refused before InputFile allocates for it.
+  const ImageHeader hdr = exr_header(bytes, name);
+  {
+    const Tile t = rows.empty() ? Tile{0, 0, hdr.width, hdr.height} : rows;
+    check_tile(t, hdr.width, hdr.height, name);
+    limits::check_memory(double(t.width) * t.height * 12.0 + double(hdr.width) * kExrBand * 12.0,
+                         fmt::format("decoding {} ({}x{} pixels)", name, hdr.width, hdr.height),
+                         "the file is corrupt, or too large for this machine",
+                         Error::Kind::kFormat);
+  }
   try {
     MemoryIStream stream(bytes, name);
     Imf::InputFile file(stream, 0);
@@ -373,41 +478,46 @@ Image exr_decode(std::span<const std::uint8_t> bytes, const std::string& name, c
     const Tile t = rows.empty() ? Tile{0, 0, l.width, l.height} : rows;
     check_tile(t, l.width, l.height, name);
 
-    // Read only the scanlines of the tile, full width, then keep the tile's columns.
+    // The tile's scanlines, full width, a band at a time; the tile's columns are kept. The
+    // image grows with the bands read, so a header claiming more than the file holds fails
+    // at the first missing band, not after allocating for all of them.
     const auto& dw = l.data_window;
-    const int y0 = dw.min.y + t.y, y1 = y0 + t.height - 1;
-    const Imath::Box2i band(Imath::V2i(dw.min.x, y0), Imath::V2i(dw.max.x, y1));
     const std::size_t nc = l.grey ? 1 : 3;
-    std::vector<float> buf(std::size_t(l.width) * std::size_t(t.height) * nc);
-    Imf::FrameBuffer fb;
     const std::array<const char*, 3> names = {"R", "G", "B"};
-    for (std::size_t c = 0; c < nc; ++c)
-      fb.insert(l.grey ? "Y" : names[c],
-                Imf::Slice::Make(Imf::FLOAT, buf.data() + c, band, nc * sizeof(float),
-                                 std::size_t(l.width) * nc * sizeof(float)));
-    file.setFrameBuffer(fb);
-    file.readPixels(y0, y1);
-
+    std::vector<float> buf(std::size_t(l.width) * std::size_t(std::min(kExrBand, t.height)) * nc);
     Image img;
     img.width = t.width;
     img.height = t.height;
     img.format = SampleFormat::kHdr;
-    img.rgb.resize(std::size_t(t.width) * std::size_t(t.height) * 3);
-    for (int y = 0; y < t.height; ++y)
-      for (int x = 0; x < t.width; ++x) {
-        const float* src =
-            buf.data() + (std::size_t(y) * std::size_t(l.width) + std::size_t(t.x + x)) * nc;
-        float* dst = img.rgb.data() + (std::size_t(y) * std::size_t(t.width) + std::size_t(x)) * 3;
-        for (std::size_t c = 0; c < 3; ++c) {
-          const float v = src[l.grey ? 0 : c];
-          if (!std::isfinite(v))
-            throw Error(Error::Kind::kFormat,
-                        fmt::format("{} holds a non-finite value ({}) at pixel x={} y={}, "
-                                    "channel {}; replace non-finite values before fitting",
-                                    name, v, t.x + x, t.y + y, l.grey ? "Y" : names[c]));
-          dst[c] = v;
+    for (int by = 0; by < t.height; by += kExrBand) {
+      const int band_rows = std::min(kExrBand, t.height - by);
+      const int y0 = dw.min.y + t.y + by, y1 = y0 + band_rows - 1;
+      const Imath::Box2i band(Imath::V2i(dw.min.x, y0), Imath::V2i(dw.max.x, y1));
+      Imf::FrameBuffer fb;
+      for (std::size_t c = 0; c < nc; ++c)
+        fb.insert(l.grey ? "Y" : names[c],
+                  Imf::Slice::Make(Imf::FLOAT, buf.data() + c, band, nc * sizeof(float),
+                                   std::size_t(l.width) * nc * sizeof(float)));
+      file.setFrameBuffer(fb);
+      file.readPixels(y0, y1);
+      img.rgb.resize(std::size_t(t.width) * std::size_t(by + band_rows) * 3);
+      for (int y = 0; y < band_rows; ++y)
+        for (int x = 0; x < t.width; ++x) {
+          const float* src =
+              buf.data() + (std::size_t(y) * std::size_t(l.width) + std::size_t(t.x + x)) * nc;
+          float* dst =
+              img.rgb.data() + (std::size_t(by + y) * std::size_t(t.width) + std::size_t(x)) * 3;
+          for (std::size_t c = 0; c < 3; ++c) {
+            const float v = src[l.grey ? 0 : c];
+            if (!std::isfinite(v))
+              throw Error(Error::Kind::kFormat,
+                          fmt::format("{} holds a non-finite value ({}) at pixel x={} y={}, "
+                                      "channel {}; replace non-finite values before fitting",
+                                      name, v, t.x + x, t.y + by + y, l.grey ? "Y" : names[c]));
+            dst[c] = v;
+          }
         }
-      }
+    }
     return img;
   } catch (const Error&) {
     throw;
@@ -451,6 +561,8 @@ std::vector<std::uint8_t> read_bytes(std::FILE* f, const fs::path& path, std::ui
   const std::uint64_t from = std::min(offset, size);
   std::uint64_t n = size - from;
   if (max != 0) n = std::min<std::uint64_t>(n, max);
+  limits::check_memory(double(n), fmt::format("reading {} ({} bytes)", path.string(), n),
+                       "it is not a BTF image; move it out of the folder", Error::Kind::kIo);
   std::vector<std::uint8_t> bytes(static_cast<std::size_t>(n));
   if (std::fseek(f, static_cast<long>(from), SEEK_SET) != 0 ||
       std::fread(bytes.data(), 1, bytes.size(), f) != bytes.size()) {
@@ -491,10 +603,13 @@ void write_atomically(const fs::path& path, std::span<const std::uint8_t> bytes)
   const std::uint64_t id = counter.fetch_add(0x9e3779b97f4a7c15ull);
   const fs::path tmp = fs::path(path.string() + fmt::format(".tmp-{:08x}", id >> 32));
 
-  auto fail = [&](const std::string& reason) {
+  auto fail = [&](const std::string& reason, int err = 0) {
     std::error_code ignored;
     fs::remove(tmp, ignored);
-    throw Error(Error::Kind::kIo, fmt::format("cannot write {}: {}", path.string(), reason));
+    throw Error(Error::Kind::kIo, fmt::format("cannot write {}: {}{}", path.string(), reason,
+                                              err == ENOSPC || err == EDQUOT
+                                                  ? "; free space on that disk or write elsewhere"
+                                                  : ""));
   };
 
   std::FILE* f = std::fopen(tmp.c_str(), "wb");
@@ -503,8 +618,8 @@ void write_atomically(const fs::path& path, std::span<const std::uint8_t> bytes)
   const int write_err = errno;
   const bool closed = std::fclose(f) == 0;
   const int close_err = errno;
-  if (!wrote) fail(std::strerror(write_err));
-  if (!closed) fail(std::strerror(close_err));
+  if (!wrote) fail(std::strerror(write_err), write_err);
+  if (!closed) fail(std::strerror(close_err), close_err);
   fs::rename(tmp, path, ec);
   if (ec) fail(ec.message());
 }

@@ -1,18 +1,14 @@
 // The .btfgmm model file (docs/FORMAT.md): magic, version, flags, payload, CRC-32.
-#include <fcntl.h>
 #include <fmt/format.h>
-#include <unistd.h>
 #include <zlib.h>
 
-#include <Imath/half.h>
-#include <atomic>
-#include <cerrno>
 #include <cmath>
 #include <cstring>
-#include <fstream>
 
 #include "btfgmm/error.hpp"
 #include "btfgmm/model.hpp"
+#include "byte_io.hpp"
+#include "limits.hpp"
 
 namespace btfgmm {
 namespace {
@@ -21,60 +17,8 @@ constexpr std::uint8_t kMagic[8] = {0x89, 'B', 'T', 'F', 'G', 'M', 'M', '\n'};
 constexpr std::size_t kHeaderBytes = 24, kTrailerBytes = 4;
 constexpr std::uint32_t kDirectionsExplicit = 0, kDirectionsUbo81 = 1;
 
-class Writer {
- public:
-  template <class T>
-  void put(T v) {
-    static_assert(std::is_arithmetic_v<T>);
-    std::uint8_t b[sizeof(T)];
-    std::memcpy(b, &v, sizeof(T));  // little-endian hosts only (x86-64, AArch64)
-    bytes.insert(bytes.end(), b, b + sizeof(T));
-  }
-  void real(double v, Precision p) {
-    if (p == Precision::kF16)
-      put<std::uint16_t>(Imath::half(float(v)).bits());
-    else
-      put<float>(float(v));
-  }
-  std::vector<std::uint8_t> bytes;
-};
-
-class Reader {
- public:
-  Reader(std::span<const std::uint8_t> b, const std::string& name) : b_(b), name_(name) {}
-  template <class T>
-  T get(const char* field) {
-    if (pos_ + sizeof(T) > b_.size())
-      throw Error(Error::Kind::kFormat,
-                  fmt::format("model file '{}' ends inside field '{}' (at byte {}); the file "
-                              "is truncated: fit or copy it again",
-                              name_, field, pos_));
-    T v;
-    std::memcpy(&v, b_.data() + pos_, sizeof(T));
-    pos_ += sizeof(T);
-    return v;
-  }
-  double real(Precision p, const char* field) {
-    if (p == Precision::kF16) {
-      Imath::half h;
-      h.setBits(get<std::uint16_t>(field));
-      return double(float(h));
-    }
-    return double(get<float>(field));
-  }
-  std::size_t remaining() const { return b_.size() - pos_; }
-  std::size_t pos() const { return pos_; }
-  [[noreturn]] void fail(const std::string& what) const {
-    throw Error(Error::Kind::kFormat,
-                fmt::format("model file '{}' is invalid: {} (at byte {}); fit the model again",
-                            name_, what, pos_));
-  }
-
- private:
-  std::span<const std::uint8_t> b_;
-  std::string name_;
-  std::size_t pos_ = 0;
-};
+using Writer = detail::ByteWriter;
+using Reader = detail::ByteReader;
 
 void put_directions(Writer& w, const DirectionSet& s) {
   if (s == DirectionSet::ubo81()) {
@@ -128,7 +72,6 @@ std::vector<std::uint8_t> serialize_model(const BtfModel& m) {
   w.put<std::uint32_t>(s.iterations);
   w.put<std::uint32_t>(s.dropped);
   w.put<double>(s.log_likelihood);
-  w.put<double>(s.seconds);
   w.put<std::uint32_t>(std::uint32_t(m.mixture.size()));
   for (std::size_t k = 0; k < m.mixture.size(); ++k) {
     w.put<float>(float(m.mixture.weight[k]));
@@ -171,7 +114,7 @@ BtfModel deserialize_model(std::span<const std::uint8_t> bytes, const std::strin
                 fmt::format("model file '{}' is truncated ({} bytes, less than its header); "
                             "fit or copy it again",
                             name, bytes.size()));
-  Reader hr(bytes.subspan(8, kHeaderBytes - 8), name);
+  Reader hr(bytes.subspan(8, kHeaderBytes - 8), "model file", name, "fit or copy it again");
   const auto version = hr.get<std::uint32_t>("version");
   const auto flags = hr.get<std::uint32_t>("flags");
   const auto payload = hr.get<std::uint64_t>("payload size");
@@ -204,14 +147,21 @@ BtfModel deserialize_model(std::span<const std::uint8_t> bytes, const std::strin
   BtfModel m;
   m.precision = Precision(flags);
   const Precision p = m.precision;
-  Reader r(bytes.subspan(kHeaderBytes, std::size_t(payload)), name);
+  Reader r(bytes.subspan(kHeaderBytes, std::size_t(payload)), "model file", name,
+           "fit the model again");
   const auto w = r.get<std::uint32_t>("width"), h = r.get<std::uint32_t>("height");
-  if (w < 1 || h < 1 || w > 65536 || h > 65536)
+  // The tile was cut from an image: no larger than the largest image read.
+  if (w < 1 || h < 1 || w > std::uint32_t(limits::kMaxImageSide) ||
+      h > std::uint32_t(limits::kMaxImageSide) ||
+      std::int64_t(w) * std::int64_t(h) > limits::kMaxImagePixels)
     r.fail(fmt::format("tile size {}x{} is out of range", w, h));
   m.width = int(w);
   m.height = int(h);
   m.origin.x = r.get<std::int32_t>("origin x");
   m.origin.y = r.get<std::int32_t>("origin y");
+  if (m.origin.x < 0 || m.origin.y < 0 || m.origin.x > limits::kMaxImageSide - m.width ||
+      m.origin.y > limits::kMaxImageSide - m.height)
+    r.fail(fmt::format("the tile's origin ({}, {}) is outside any image", m.origin.x, m.origin.y));
   m.origin.width = m.width;
   m.origin.height = m.height;
   const auto format = r.get<std::uint32_t>("sample format");
@@ -231,9 +181,11 @@ BtfModel deserialize_model(std::span<const std::uint8_t> bytes, const std::strin
   s.iterations = r.get<std::uint32_t>("iterations");
   s.dropped = r.get<std::uint32_t>("dropped");
   s.log_likelihood = r.get<double>("log-likelihood");
-  s.seconds = r.get<double>("seconds");
   const auto count = r.get<std::uint32_t>("components");
   const std::size_t real_bytes = p == Precision::kF16 ? 2 : 4;
+  if (double(m.lights.size()) * double(m.views.size()) > double(r.remaining()))
+    r.fail(fmt::format("{} x {} directions need a larger mean BRDF than the file holds",
+                       m.lights.size(), m.views.size()));
   const std::size_t expect = std::size_t(count) * (4 + 18 * real_bytes) +
                              m.lights.size() * m.views.size() * 3 * real_bytes;
   if (count == 0 || expect != r.remaining())
@@ -262,55 +214,11 @@ BtfModel deserialize_model(std::span<const std::uint8_t> bytes, const std::strin
 }
 
 void save_model(const BtfModel& model, const std::filesystem::path& path) {
-  const std::vector<std::uint8_t> bytes = serialize_model(model);
-  static std::atomic<unsigned> counter{0};
-  const std::filesystem::path tmp =
-      path.string() + fmt::format(".tmp-{}-{}", ::getpid(), counter++);
-  const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0644);
-  if (fd < 0) {
-    const int err = errno;
-    const auto dir = path.parent_path().empty() ? std::filesystem::path(".") : path.parent_path();
-    std::error_code ec;
-    const std::string hint = std::filesystem::is_directory(dir, ec)
-                                 ? "check that the folder is writable"
-                                 : "the folder does not exist; create it first";
-    throw Error(Error::Kind::kIo, fmt::format("cannot write model file '{}': {} ({})",
-                                              path.string(), std::strerror(err), hint));
-  }
-  std::size_t done = 0;
-  int err = 0;
-  while (done < bytes.size()) {
-    const ssize_t n = ::write(fd, bytes.data() + done, bytes.size() - done);
-    if (n < 0) {
-      if (errno == EINTR) continue;
-      err = errno;
-      break;
-    }
-    done += std::size_t(n);
-  }
-  if (!err && ::fsync(fd) != 0) err = errno;
-  if (::close(fd) != 0 && !err) err = errno;
-  if (!err && std::rename(tmp.c_str(), path.c_str()) != 0) err = errno;
-  if (err) {
-    ::unlink(tmp.c_str());
-    throw Error(Error::Kind::kIo,
-                fmt::format("cannot write model file '{}': {}; nothing was written under that "
-                            "name",
-                            path.string(), std::strerror(err)));
-  }
+  detail::write_file_atomically(path, serialize_model(model), "model file");
 }
 
 BtfModel load_model(const std::filesystem::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::error_code ec;
-  if (!in || std::filesystem::is_directory(path, ec))
-    throw Error(
-        Error::Kind::kIo,
-        fmt::format("cannot read model file '{}': {}", path.string(),
-                    std::filesystem::exists(path, ec) ? "not a readable file" : "no such file"));
-  std::vector<std::uint8_t> bytes((std::istreambuf_iterator<char>(in)),
-                                  std::istreambuf_iterator<char>());
-  return deserialize_model(bytes, path.string());
+  return deserialize_model(detail::read_whole_file(path, "model file"), path.string());
 }
 
 }  // namespace btfgmm

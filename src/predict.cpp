@@ -11,6 +11,7 @@
 #include "btfgmm/error.hpp"
 #include "btfgmm/model.hpp"
 #include "fast_exp.hpp"
+#include "limits.hpp"
 #if defined(__AVX512F__)
 #include "em_avx512.hpp"
 #endif
@@ -72,7 +73,9 @@ void predict(const BtfModel& model, std::span<const Query> queries, std::span<fl
     check_direction(q.view, "view");
     if (!std::isfinite(q.x) || !std::isfinite(q.y))
       throw Error(Error::Kind::kArgument,
-                  fmt::format("pixel position ({}, {}) is not finite", q.x, q.y));
+                  fmt::format("pixel position x={} y={} is not finite; give finite x and y "
+                              "(any real number: the tile repeats)",
+                              q.x, q.y));
   }
   const MeanBrdfInterpolator mean(model);
   const ProductMixture& mix = model.mixture;
@@ -125,6 +128,15 @@ Btf decode(const BtfModel& model, const DirectionSet& lights, const DirectionSet
            int height) {
   for (const auto& d : lights) check_direction(d, "light");
   for (const auto& d : views) check_direction(d, "view");
+  // The images and the model's per-pixel table, before allocating either.
+  const double padded = double((model.mixture.size() + 15) / 16 * 16);
+  limits::check_memory(double(lights.size()) * double(views.size()) * width * height * 12.0 +
+                           double(model.width) * model.height * (padded * 4.0 + 12.0),
+                       fmt::format("decoding {} images of {}x{} pixels from a {}x{} tile with "
+                                   "M = {}",
+                                   lights.size() * views.size(), width, height, model.width,
+                                   model.height, model.mixture.size()),
+                       "decode a smaller size (--size) or fewer directions (--light, --view)");
   Btf out(lights, views, width, height, model.format);
   const ProductMixture& mix = model.mixture;
   const std::size_t m_count = mix.size(), tw = std::size_t(model.width),

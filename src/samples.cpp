@@ -8,6 +8,7 @@
 
 #include "btfgmm/error.hpp"
 #include "btfgmm/model.hpp"
+#include "limits.hpp"
 
 namespace btfgmm {
 
@@ -91,6 +92,11 @@ SampleSet make_sample_set(const Btf& btf) {
   }
 
   s.mean_brdf = mean_brdf(btf);
+  // The residuals take as much memory again as the tile itself.
+  limits::check_memory(double(s.size()) * 24.0,
+                       fmt::format("fitting a {}x{} tile of {} lights x {} views", s.width,
+                                   s.height, s.lights, s.views),
+                       "fit a smaller tile (--tile)");
   s.residual.resize(s.size() * 3);
   const float inv_unit = float(1.0 / colour_unit);
 #pragma omp parallel for schedule(static)
@@ -125,6 +131,16 @@ ProductMixture initial_mixture(const SampleSet& s, std::size_t components, std::
                 fmt::format("components = {} is more than the {} samples of the tile; give "
                             "fewer components or a larger tile",
                             components, n));
+  // EM's tables (docs/ALGORITHM.md): per pixel and component a float table and a double
+  // accumulator, per light and view and component the 17 chunks' double accumulators.
+  const double padded = double((components + 15) / 16 * 16);
+  limits::check_memory(double(s.pixels()) * padded * 12.0 +
+                           17.0 * double(s.lights + s.views + 6) * padded * 8.0 +
+                           double(s.size()) * 24.0,
+                       fmt::format("fitting M = {} components to a {}x{} tile of {} lights x {} "
+                                   "views",
+                                   components, s.width, s.height, s.lights, s.views),
+                       "give fewer components (--components) or a smaller tile (--tile)");
   // The variance of each variable over the sample set (shifted by the first sample).
   std::array<double, kVariables> s1{}, s2{};
   const auto ref = s.sample(0);
