@@ -31,20 +31,15 @@ bench: build
 	@$(BUILD)/bench_fit --tile 12 --components 600 --iterations 5
 	@$(BUILD)/bench_fit --size 64 --tile 64 --components 600 --iterations 40 --no-peer
 
-# The test suite under AddressSanitizer and UndefinedBehaviorSanitizer, in build-asan. With
-# ASAN_TESTS (a ctest -R regular expression), only the tests it matches, building only the
-# test binary and the command (CI does this).
-ASAN_TESTS ?=
+# The test suite under AddressSanitizer and UndefinedBehaviorSanitizer, in build-asan (without
+# the benchmarks). ASAN_TESTS / ASAN_EXCLUDE (ctest -R / -E regular expressions) choose tests.
 # Debug keeps the assertions; CMakeLists.txt sets -O1 -g1 for sanitizer builds.
-ASAN_ARGS = -DBTFGMM_ASAN=ON -DCMAKE_BUILD_TYPE=Debug
+ASAN_TESTS ?=
+ASAN_EXCLUDE ?=
 asan:
-ifeq ($(ASAN_TESTS),)
-	@$(MAKE) --no-print-directory test BUILD=build-asan CMAKE_ARGS="$(ASAN_ARGS)"
-else
-	@$(MAKE) --no-print-directory configure BUILD=build-asan CMAKE_ARGS="$(ASAN_ARGS) -DBTFGMM_BENCH=OFF"
-	@cmake --build build-asan -j$(JOBS) --target btfgmm_tests btfgmm_cli
-	@cd build-asan && ctest --output-on-failure -j$(JOBS) -R '$(ASAN_TESTS)'
-endif
+	@$(MAKE) --no-print-directory configure BUILD=build-asan CMAKE_ARGS="-DBTFGMM_ASAN=ON -DCMAKE_BUILD_TYPE=Debug -DBTFGMM_BENCH=OFF"
+	@cmake --build build-asan -j$(JOBS)
+	@cd build-asan && ctest --output-on-failure -j$(JOBS) $(if $(ASAN_TESTS),-R '$(ASAN_TESTS)') $(if $(ASAN_EXCLUDE),-E '$(ASAN_EXCLUDE)')
 
 format:
 	@clang-format -i $$(git ls-files '*.cpp' '*.hpp')

@@ -94,7 +94,9 @@ TEST(Metrics, SsimOfFlatImagesIsTheLuminanceTerm) {
   for (const auto& [w, h] : {std::pair{16, 12}, std::pair{5, 7}, std::pair{1, 1}}) {
     const std::vector<float> a(std::size_t(w * h * 3), 100.0f), b(a.size(), 110.0f);
     std::vector<double> map;
-    EXPECT_NEAR(ssim_channel(a, b, w, h, 1, 255.0, {}, &map), expected, 1e-14) << w << "x" << h;
+    // 1e-12: the window sums' rounding depends on the optimisation level (3e-14 at the -O1 of
+    // the sanitizer build).
+    EXPECT_NEAR(ssim_channel(a, b, w, h, 1, 255.0, {}, &map), expected, 1e-12) << w << "x" << h;
     const int r = ssim_radius(w, h);
     EXPECT_EQ(map.size(), std::size_t((w - 2 * r) * (h - 2 * r)));
   }
