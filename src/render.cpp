@@ -14,29 +14,19 @@
 #include "btfgmm/error.hpp"
 #include "btfgmm/metrics.hpp"
 
+#include "vec3_ops.hpp"
+
 namespace btfgmm {
 namespace {
 
 constexpr double kPi = std::numbers::pi;
 
-Vec3 operator+(const Vec3& a, const Vec3& b) {
-  return {a.x + b.x, a.y + b.y, a.z + b.z};
-}
-Vec3 operator-(const Vec3& a, const Vec3& b) {
-  return {a.x - b.x, a.y - b.y, a.z - b.z};
-}
-Vec3 operator*(const Vec3& a, double s) {
-  return {a.x * s, a.y * s, a.z * s};
-}
-double dot(const Vec3& a, const Vec3& b) {
-  return a.x * b.x + a.y * b.y + a.z * b.z;
-}
-Vec3 cross(const Vec3& a, const Vec3& b) {
-  return {a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x};
-}
-double length(const Vec3& a) {
-  return std::sqrt(dot(a, a));
-}
+using detail::operator+;
+using detail::operator-;
+using detail::operator*;
+using detail::cross;
+using detail::dot;
+using detail::length;
 Vec3 normalized(const Vec3& a) {
   const double l = length(a);
   return l > 0 ? a * (1.0 / l) : a;
