@@ -121,7 +121,10 @@ int run_cli(const std::string& args) {
 }
 
 // Starts `btfgmm fit ...` and kills it after `delay` with `sig`; returns its exit status.
-int start_and_kill(const std::vector<std::string>& args, std::chrono::milliseconds delay, int sig) {
+// The delay counts from the moment the first checkpoint appears (loading the data takes a
+// time that varies with the machine's load), so that every kill lands inside the fit.
+int start_and_kill(const std::vector<std::string>& args, const fs::path& checkpoint,
+                   std::chrono::milliseconds delay, int sig) {
   const pid_t pid = fork();
   if (pid == 0) {
     std::vector<char*> argv;
@@ -132,9 +135,13 @@ int start_and_kill(const std::vector<std::string>& args, std::chrono::millisecon
     execv(BTFGMM_CLI_PATH, argv.data());
     _exit(127);
   }
+  int status = 0;
+  for (int i = 0; i < 6000 && !fs::exists(checkpoint); ++i) {
+    if (waitpid(pid, &status, WNOHANG) == pid) return status;  // finished (or failed) first
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
   std::this_thread::sleep_for(delay);
   kill(pid, sig);
-  int status = 0;
   waitpid(pid, &status, 0);
   return status;
 }
@@ -142,7 +149,8 @@ int start_and_kill(const std::vector<std::string>& args, std::chrono::millisecon
 // The command, killed with SIGKILL at several moments and resumed, writes the model an
 // uninterrupted fit writes; SIGINT saves the state itself and exits with 130.
 TEST(Resume, KilledCommandResumesToTheSameModel) {
-  const fs::path dir = fs::temp_directory_path() / "btfgmm_kill_resume";
+  const fs::path dir =
+      fs::temp_directory_path() / ("btfgmm_kill_resume_" + std::to_string(::getpid()));
   fs::remove_all(dir);
   fs::create_directories(dir);
   const std::string btf = (dir / "btf").string();
@@ -163,11 +171,12 @@ TEST(Resume, KilledCommandResumesToTheSameModel) {
   for (int k = 0; k < points; ++k) {
     const fs::path model = dir / ("cut" + std::to_string(k) + ".btfgmm");
     const fs::path ckpt = dir / ("cut" + std::to_string(k) + ".ckpt");
-    const auto delay = std::chrono::milliseconds(full_ms * (k + 1) / (points + 1));
+    // Kill points spread over the first two thirds of the fit after its first checkpoint.
+    const auto delay = std::chrono::milliseconds(full_ms * 2 * k / (3 * points));
     const int sig = k % 4 == 3 ? SIGINT : SIGKILL;
     const int status = start_and_kill({"fit", btf, "-M", "30", "--iterations", "40", "--seed", "3",
                                        "-q", "-o", model.string(), "--checkpoint", ckpt.string()},
-                                      delay, sig);
+                                      ckpt, delay, sig);
     if (sig == SIGINT && WIFEXITED(status)) {
       EXPECT_TRUE(WEXITSTATUS(status) == 130 || WEXITSTATUS(status) == 0);
       if (WEXITSTATUS(status) == 130) {
