@@ -18,6 +18,7 @@
 #include <vector>
 
 #include "btfgmm/btfgmm.hpp"
+#include "btfgmm/model.hpp"
 
 namespace btfgmm::cli {
 
@@ -215,6 +216,19 @@ inline bool is_model_path(const std::filesystem::path& p) {
   std::string ext = p.extension().string();
   for (char& c : ext) c = char(std::tolower(static_cast<unsigned char>(c)));
   return ext != ".zip";
+}
+
+// How a model was fitted, for --json output (info, compare).
+inline void put_fit_settings(nlohmann::json& j, const btfgmm::BtfModel& m) {
+  const auto& s = m.settings;
+  j["components"] = m.mixture.size();
+  j["components_requested"] = s.components;
+  j["components_dropped"] = s.dropped;
+  j["iterations"] = s.iterations;
+  j["max_iterations"] = s.max_iterations;
+  j["epsilon"] = s.epsilon;
+  j["seed"] = s.seed;
+  j["precision"] = m.precision == btfgmm::Precision::kF16 ? "f16" : "f32";
 }
 
 }  // namespace btfgmm::cli

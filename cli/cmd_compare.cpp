@@ -80,14 +80,7 @@ nlohmann::json comparison_json(const std::string& btf, const ModelComparison& c)
   j["compression_ratio_paper"] = m.compression_ratio_paper();
   j["compression_ratio_file"] = m.compression_ratio_file(c.file_bytes);
   j["file_bytes"] = c.file_bytes;
-  j["components"] = m.mixture.size();
-  j["components_requested"] = s.components;
-  j["components_dropped"] = s.dropped;
-  j["iterations"] = s.iterations;
-  j["max_iterations"] = s.max_iterations;
-  j["epsilon"] = s.epsilon;
-  j["seed"] = s.seed;
-  j["precision"] = m.precision == Precision::kF16 ? "f16" : "f32";
+  put_fit_settings(j, m);
   j["log_likelihood"] = s.log_likelihood;
   if (s.seconds > 0) j["fit_seconds"] = s.seconds;  // when the model file holds it
   return j;

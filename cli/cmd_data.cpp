@@ -102,15 +102,8 @@ void info_model(const std::string& path, bool json) {
     j["lights"] = m.lights.size();
     j["views"] = m.views.size();
     j["bit_depth"] = btfgmm::to_string(m.format);
-    j["components"] = m.mixture.size();
-    j["components_requested"] = s.components;
-    j["components_dropped"] = s.dropped;
-    j["iterations"] = s.iterations;
-    j["max_iterations"] = s.max_iterations;
-    j["epsilon"] = s.epsilon;
-    j["seed"] = s.seed;
+    put_fit_settings(j, m);
     j["log_likelihood"] = s.log_likelihood;
-    j["precision"] = m.precision == btfgmm::Precision::kF16 ? "f16" : "f32";
     j["file_bytes"] = bytes;
     j["compression_ratio_paper"] = m.compression_ratio_paper();
     j["compression_ratio_file"] = m.compression_ratio_file(bytes);

@@ -35,6 +35,8 @@
 #include "btfgmm/model.hpp"
 #include "limits.hpp"
 
+#include "test_util.hpp"
+
 namespace {
 
 namespace fs = std::filesystem;
@@ -399,20 +401,7 @@ TEST_F(BadInput, FullDisk) {
 
 // ---- limits before allocation (the library) --------------------------------------------
 
-// The message of the btfgmm::Error `f` throws ("" and a test failure if none).
-template <class F>
-std::string error_of(F f) {
-  try {
-    f();
-  } catch (const btfgmm::Error& e) {
-    return e.what();
-  } catch (const std::exception& e) {
-    ADD_FAILURE() << "not a btfgmm::Error: " << e.what();
-    return "";
-  }
-  ADD_FAILURE() << "no error";
-  return "";
-}
+using btfgmm::test::error_of;
 
 // Runs `f` in a child process limited to 1 GiB of address space: its exit status is 0 when
 // f threw a btfgmm::Error without running out of memory, 1 when it threw something else or

@@ -15,6 +15,8 @@
 #include "btfgmm/image.hpp"
 #include "btfgmm/model.hpp"
 
+#include "test_util.hpp"
+
 namespace {
 
 namespace fs = std::filesystem;
@@ -26,21 +28,7 @@ std::vector<std::uint8_t> bytes_of(const fs::path& p) {
   return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
 }
 
-// The message of the btfgmm::Error `f` throws; a test failure if it throws nothing or
-// something else.
-template <class F>
-std::string error_of(F f) {
-  try {
-    f();
-  } catch (const btfgmm::Error& e) {
-    return e.what();
-  } catch (const std::exception& e) {
-    ADD_FAILURE() << "not a btfgmm::Error: " << e.what();
-    return "";
-  }
-  ADD_FAILURE() << "no error";
-  return "";
-}
+using btfgmm::test::error_of;
 
 // A JPEG whose Huffman table claims 551 codes: Debian's stb_image wrote past its tables (in
 // the header reader as in the decoder). Found by fuzz_image_set in its first seconds.
