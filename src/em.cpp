@@ -129,6 +129,7 @@ struct ChunkStats {
 struct Workspace {
   std::vector<float> sl, t, a0, a1, a2, qv, cmax;
   std::vector<std::uint8_t> live;
+  std::vector<std::uint32_t> view_list;  // the block's views in processing order
   explicit Workspace(std::size_t stride, std::size_t views, int group)
       : sl(stride),
         t(std::size_t(group) * stride),
@@ -137,16 +138,17 @@ struct Workspace {
         a2(3 * stride),
         qv(views * stride),
         cmax(std::size_t(group) * (stride / kLanes)),
-        live(stride / kLanes) {}
+        live(stride / kLanes),
+        view_list(views) {}
 };
 
-// G samples of one (pixel, light) block: views v0 .. v0 + G - 1. Eq. (3)-(4) for each sample,
+// G samples of one (pixel, light) block: the views views[0 .. G - 1]. Eq. (3)-(4) for each sample,
 // and with `stats` the responsibilities folded into the block's accumulators at once:
 // a0 += sum q, a1 += sum q d, a2 += sum q d^2 (d = colour - mean), qv[view] += q. The G samples
 // share every load of a component's parameters.
 template <int G>
-double group_pass(const Tables& t, const SampleSet& s, std::size_t p, std::size_t l, std::size_t v0,
-                  Workspace& w, bool stats) {
+double group_pass(const Tables& t, const SampleSet& s, std::size_t p, std::size_t l,
+                  const std::uint32_t* views, Workspace& w, bool stats) {
   const std::size_t st = t.stride;
   const float* __restrict sl = w.sl.data();
   const float* __restrict mu0 = t.mu.data();
@@ -159,11 +161,11 @@ double group_pass(const Tables& t, const SampleSet& s, std::size_t p, std::size_
   const float* vrow[G];
   float* __restrict tt[G];
   for (int g = 0; g < G; ++g) {
-    const float* rr = &s.residual[s.index(p, l, v0 + std::size_t(g)) * 3];
+    const float* rr = &s.residual[s.index(p, l, views[g]) * 3];
     r[g][0] = rr[0];
     r[g][1] = rr[1];
     r[g][2] = rr[2];
-    vrow[g] = &t.v[(v0 + std::size_t(g)) * st];
+    vrow[g] = &t.v[std::size_t(views[g]) * st];
     tt[g] = &w.t[std::size_t(g) * st];
   }
   // log w_m F(x | m) for the G samples (the per-pixel, per-light and per-view parts from the
@@ -224,7 +226,7 @@ double group_pass(const Tables& t, const SampleSet& s, std::size_t p, std::size_
   float* __restrict a1 = w.a1.data();
   float* __restrict a2 = w.a2.data();
   float* __restrict qv[G];
-  for (int g = 0; g < G; ++g) qv[g] = &w.qv[(v0 + std::size_t(g)) * st];
+  for (int g = 0; g < G; ++g) qv[g] = &w.qv[std::size_t(views[g]) * st];
   for (std::size_t j = 0; j < chunks; ++j) {
     if (!live[j]) continue;
 #pragma omp simd
@@ -259,11 +261,55 @@ double group_pass(const Tables& t, const SampleSet& s, std::size_t p, std::size_
 
 constexpr int kGroup = 4;
 
+// Morton key of a colour (10 bits a channel over the box lo..hi).
+std::uint32_t colour_key(const float* rgb, const float lo[3], const float span[3]) {
+  std::uint32_t k = 0;
+  for (int c = 0; c < 3; ++c) {
+    const float u = span[c] > 0 ? (rgb[c] - lo[c]) / span[c] : 0.0f;
+    const auto q = std::uint32_t(std::clamp(u, 0.0f, 0.9999f) * 1024.0f);
+    for (int bit = 0; bit < 10; ++bit) k |= ((q >> bit) & 1u) << (3 * bit + c);
+  }
+  return k;
+}
+
+// The views of every (pixel, light) block in the order of their residual colours (a Morton
+// key): the four samples of a group then have similar colours, so the components near one
+// of them are near all four and the skip of group_pass drops more vectors (on generated data
+// the live fraction falls from about 0.42 to 0.31). Grouping changes nothing but float
+// summation order, and the order is a function of the data alone. One byte a sample; sets of
+// more than 256 views keep their own order (empty result).
+std::vector<std::uint8_t> view_order(const SampleSet& s) {
+  const std::size_t nv = s.views, blocks = s.pixels() * s.lights;
+  if (nv > 256 || nv < 2) return {};
+  float lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+  for (std::size_t i = 0; i < s.size(); ++i)
+    for (int c = 0; c < 3; ++c) {
+      lo[c] = std::min(lo[c], s.residual[i * 3 + std::size_t(c)]);
+      hi[c] = std::max(hi[c], s.residual[i * 3 + std::size_t(c)]);
+    }
+  const float span[3] = {hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]};
+  std::vector<std::uint8_t> order(s.size());
+  const auto n = std::ptrdiff_t(blocks);
+#pragma omp parallel
+  {
+    std::vector<std::pair<std::uint32_t, std::uint8_t>> key(nv);
+#pragma omp for schedule(static)
+    for (std::ptrdiff_t b = 0; b < n; ++b) {
+      const std::size_t first = std::size_t(b) * nv;
+      for (std::size_t v = 0; v < nv; ++v)
+        key[v] = {colour_key(&s.residual[(first + v) * 3], lo, span), std::uint8_t(v)};
+      std::sort(key.begin(), key.end());
+      for (std::size_t v = 0; v < nv; ++v) order[first + v] = key[v].second;
+    }
+  }
+  return order;
+}
+
 // One E pass. With `stats`, folds the responsibilities into qp (P x stride) and the chunks.
 // Accumulation: float within a (pixel, light) block of nv samples (and per view within a
 // pixel's ni blocks), double beyond, in a fixed order per chunk.
-double e_pass(const SampleSet& s, const Tables& t, int threads, std::vector<double>* qp,
-              std::vector<ChunkStats>* stats) {
+double e_pass(const SampleSet& s, const Tables& t, const std::vector<std::uint8_t>& order,
+              int threads, std::vector<double>* qp, std::vector<ChunkStats>* stats) {
   const std::size_t st = t.stride, ni = s.lights, nv = s.views, pixels = s.pixels();
   std::vector<double> chunk_ll(kChunks, 0.0);
   std::exception_ptr failure;
@@ -288,6 +334,12 @@ double e_pass(const SampleSet& s, const Tables& t, int threads, std::vector<doub
               std::fill(w.a1.begin(), w.a1.end(), 0.0f);
               std::fill(w.a2.begin(), w.a2.end(), 0.0f);
             }
+            // The block's views in colour order (view_order), or their own.
+            std::uint32_t* views = w.view_list.data();
+            if (order.empty())
+              for (std::size_t v = 0; v < nv; ++v) views[v] = std::uint32_t(v);
+            else
+              for (std::size_t v = 0; v < nv; ++v) views[v] = order[s.index(p, l, v)];
             std::size_t v = 0;
 #if defined(__AVX512F__)
             for (; v + 4 <= nv; v += 4) {
@@ -295,18 +347,20 @@ double e_pass(const SampleSet& s, const Tables& t, int threads, std::vector<doub
               float r[4][3];
               float* qv[4];
               for (int g = 0; g < 4; ++g) {
-                vrow[g] = &t.v[(v + std::size_t(g)) * st];
-                const float* rr = &s.residual[s.index(p, l, v + std::size_t(g)) * 3];
+                const std::size_t view = views[v + std::size_t(g)];
+                vrow[g] = &t.v[view * st];
+                const float* rr = &s.residual[s.index(p, l, view) * 3];
                 for (int k = 0; k < 3; ++k) r[g][k] = rr[k];
-                qv[g] = &w.qv[(v + std::size_t(g)) * st];
+                qv[g] = &w.qv[view * st];
               }
               ll += detail::group_pass4_avx512(
                   st, w.sl.data(), t.mu.data(), t.neg_half_inv_var.data(), vrow, r, w.t.data(),
                   w.live.data(), t.skip_margin, want, w.a0.data(), w.a1.data(), w.a2.data(), qv);
             }
 #endif
-            for (; v + kGroup <= nv; v += kGroup) ll += group_pass<kGroup>(t, s, p, l, v, w, want);
-            for (; v < nv; ++v) ll += group_pass<1>(t, s, p, l, v, w, want);
+            for (; v + kGroup <= nv; v += kGroup)
+              ll += group_pass<kGroup>(t, s, p, l, views + v, w, want);
+            for (; v < nv; ++v) ll += group_pass<1>(t, s, p, l, views + v, w, want);
             if (!want) continue;
             double* qpp = &(*qp)[p * st];
             double* qll = &cs->ql[l * st];
@@ -348,6 +402,7 @@ EmResult fit_em(const SampleSet& s, ProductMixture& mix, const EmConfig& config,
   const auto t0 = std::chrono::steady_clock::now();
   const int threads = resolve_threads(config.threads);
   const std::size_t pixels = s.pixels(), ni = s.lights, nv = s.views;
+  const std::vector<std::uint8_t> order = view_order(s);
   EmResult result;
   if (resume) {
     result = *resume;
@@ -365,7 +420,7 @@ EmResult fit_em(const SampleSet& s, ProductMixture& mix, const EmConfig& config,
       c.c1.assign(3 * st, 0.0);
       c.c2.assign(3 * st, 0.0);
     }
-    const double ll = e_pass(s, t, threads, &qp, &chunks);
+    const double ll = e_pass(s, t, order, threads, &qp, &chunks);
     // Reduce the chunks in order.
     std::vector<double> ql(ni * st, 0.0), qv(nv * st, 0.0), c1(3 * st, 0.0), c2(3 * st, 0.0);
     for (const auto& c : chunks) {
@@ -416,7 +471,7 @@ EmResult fit_em(const SampleSet& s, ProductMixture& mix, const EmConfig& config,
       return result;
     }
   }
-  result.final_log_likelihood = e_pass(s, make_tables(s, mix), threads, nullptr, nullptr);
+  result.final_log_likelihood = e_pass(s, make_tables(s, mix), order, threads, nullptr, nullptr);
   return result;
 }
 
