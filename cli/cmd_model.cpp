@@ -156,6 +156,7 @@ void run_fit(FitOptions o) {
 struct DecodeOptions {
   std::string model, out, size;
   std::vector<std::string> lights, views;
+  double tolerance = btfgmm::kDecodeTolerance;
   bool overwrite = false;
 };
 
@@ -175,7 +176,8 @@ void run_decode(const DecodeOptions& o) {
   const auto t0 = Clock::now();
   // One light at a time: a large repeated size need not fit in memory at once.
   for (std::size_t l = 0; l < lights.size(); ++l) {
-    const btfgmm::Btf part = btfgmm::decode(m, btfgmm::DirectionSet({lights[l]}), views, w, h);
+    const btfgmm::Btf part =
+        btfgmm::decode(m, btfgmm::DirectionSet({lights[l]}), views, w, h, o.tolerance);
     btfgmm::write_utia(part, o.out);
   }
   fmt::print(stderr, "wrote {} images of {}x{} pixels to {} in {}\n", lights.size() * views.size(),
@@ -261,6 +263,11 @@ void register_model_commands(CLI::App& app, Commands& commands) {
                 "View THETA,PHI in degrees (repeatable; default: the "
                 "measured set)");
   d->add_option("--size", dec->size, "N or WxH pixels, the tile repeated (default: the tile)");
+  d->add_option("--tolerance", dec->tolerance,
+                "Largest change, in levels, that skipping negligible components may cause (0: "
+                "evaluate every component)")
+      ->capture_default_str()
+      ->check(CLI::NonNegativeNumber);
   d->add_flag("--overwrite", dec->overwrite, "Replace images in a non-empty output folder");
 
   commands.push_back({d, [dec] { run_decode(*dec); }});

@@ -1,10 +1,12 @@
 // End to end: generate a BTF, fit the model, decode, measure.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 
 #include "btfgmm/btfgmm.hpp"
+#include "btfgmm/error.hpp"
 #include "btfgmm/model.hpp"
 
 namespace btfgmm {
@@ -59,6 +61,37 @@ TEST(Fit, ModelBeatsTheMeanBrdfOnAGeneratedTile) {
   const double f16_rmse = rmse(decode(half, btf.lights(), btf.views(), 16, 16), btf);
   std::printf("  with f16 parameters: RMSE %.3f\n", f16_rmse);
   EXPECT_LT(std::abs(f16_rmse - model_rmse), 0.05 * model_rmse);
+
+  // Decoding skips components within its tolerance: against every component evaluated
+  // (tolerance 0), the default (1e-3 levels) stays within 2e-3 levels, a coarse 2 levels
+  // within 2.001 but not exactly equal; and the exact decode equals predict() to 1e-3.
+  const Btf exact = decode(model, btf.lights(), btf.views(), 16, 16, 0.0);
+  auto max_diff = [&](const Btf& other) {
+    double worst = 0.0;
+    for (std::size_t i = 0; i < exact.data().size(); ++i)
+      worst = std::max(worst, std::abs(double(exact.data()[i]) - double(other.data()[i])));
+    return worst;
+  };
+  EXPECT_LE(max_diff(decoded), 2e-3);
+  const double coarse = max_diff(decode(model, btf.lights(), btf.views(), 16, 16, 2.0));
+  std::printf("  decode: largest change with tolerance 1e-3: %.2e, with 2 levels: %.3f\n",
+              max_diff(decoded), coarse);
+  EXPECT_LE(coarse, 2.001);
+  EXPECT_GT(coarse, 0.0);
+  std::vector<Query> queries;
+  for (std::size_t l = 0; l < btf.lights().size(); l += 7)
+    for (std::size_t v = 0; v < btf.views().size(); v += 5)
+      queries.push_back({double(l % 16), double(v % 16), btf.lights()[l], btf.views()[v]});
+  std::vector<float> rgb(queries.size() * 3);
+  predict(model, queries, rgb);
+  std::size_t i = 0;
+  for (std::size_t l = 0; l < btf.lights().size(); l += 7)
+    for (std::size_t v = 0; v < btf.views().size(); v += 5, ++i)
+      for (int ch = 0; ch < 3; ++ch)
+        EXPECT_NEAR(exact.at(l, v, int(l % 16), int(v % 16), ch), rgb[i * 3 + std::size_t(ch)],
+                    1e-3);
+  EXPECT_THROW(decode(model, btf.lights(), btf.views(), 4, 4, -1.0), Error);
+  EXPECT_THROW(decode(model, btf.lights(), btf.views(), 4, 4, NAN), Error);
 }
 
 }  // namespace

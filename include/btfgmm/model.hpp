@@ -131,6 +131,9 @@ BtfModel fit_model(const Btf& btf, const FitConfig& config, const EmCallback& pr
 
 // ---- prediction, Eq. (8)-(11) -------------------------------------------------------------
 
+// decode()'s default tolerance, levels: a thousandth of an 8-bit level.
+constexpr double kDecodeTolerance = 1e-3;
+
 struct Query {
   double x = 0.0, y = 0.0;  // tile pixel coordinates; any real value (the tile repeats)
   Direction light, view;
@@ -141,10 +144,14 @@ struct Query {
 void predict(const BtfModel& model, std::span<const Query> queries, std::span<float> rgb);
 std::array<float, 3> predict(const BtfModel& model, const Query& query);
 
-// Decodes images of width x height pixels (the tile repeated from `offset`) for every pair
-// of the given light and view sets. Uses the same grid-factored tables as the fit.
+// Decodes images of width x height pixels (the tile repeated) for every pair of the given
+// light and view sets, on the grid-factored form of Eq. (9) (docs/ALGORITHM.md, "Decoding").
+// Components whose weight is bounded so low over a block of pixels that all of them together
+// move no value by more than `tolerance` levels (of the data's scale) are skipped; 0 keeps
+// every component. The result equals predict()'s within tolerance + 1e-3 levels. Throws
+// Error(kArgument) for a direction off the hemisphere or a negative tolerance.
 Btf decode(const BtfModel& model, const DirectionSet& lights, const DirectionSet& views, int width,
-           int height);
+           int height, double tolerance = kDecodeTolerance);
 
 // ---- the model file (docs/FORMAT.md) ------------------------------------------------------
 
