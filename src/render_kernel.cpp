@@ -23,6 +23,7 @@
 #include <omp.h>
 
 #include <algorithm>
+#include <bit>
 #include <chrono>
 #include <cmath>
 #include <cstring>
@@ -85,77 +86,106 @@ inline float atan2_right(float y, float x) {
   return y < 0.0f ? -r : r;
 }
 
-// The kept components of a block, gathered into contiguous arrays: per input the scale s
-// and offset s mu (the term of Eq. 9 is (x s - s mu)^2 in log2 units), the log2 base weight
-// (less the block's reference), the colour means.
-struct Gathered {
-  const float* scale[kInputs];
-  const float* offset[kInputs];
-  const float* base;
-  const float* colour[3];
-  std::size_t n;
-};
+// A vector of 16 floats (one AVX-512 register; GCC lowers it to narrower registers where
+// the machine has none) and its integer twin.
+constexpr int kLanes = 16;
+using Vf = float __attribute__((vector_size(64)));
+using Vi = std::int32_t __attribute__((vector_size(64)));
 
-struct Sums {
-  float sum = 0, c0 = 0, c1 = 0, c2 = 0;
-};
-
-// Sum over the gathered components of 2^t and 2^t mu, t = base - sum_k (x_k s_k - o_k)^2
-// (t <= 0: the base holds the block's upper bound). One vectorised pass.
-[[gnu::noinline]] Sums sum_weights(const Gathered& g, const float* x) {
-  const float* __restrict s0 = g.scale[0], * __restrict s1 = g.scale[1], * __restrict s2 = g.scale[2], * __restrict s3 = g.scale[3], * __restrict s4 = g.scale[4], * __restrict s5 = g.scale[5];
-  const float* __restrict o0 = g.offset[0], * __restrict o1 = g.offset[1], * __restrict o2 = g.offset[2], * __restrict o3 = g.offset[3], * __restrict o4 = g.offset[4], * __restrict o5 = g.offset[5];
-  const float* __restrict base = g.base, * __restrict m0 = g.colour[0], * __restrict m1 = g.colour[1], * __restrict m2 = g.colour[2];
-  const float x0 = x[0], x1 = x[1], x2 = x[2], x3 = x[3], x4 = x[4], x5 = x[5];
-  float sum = 0, c0 = 0, c1 = 0, c2 = 0;
-  const std::size_t n = g.n;
-#pragma omp simd reduction(+ : sum, c0, c1, c2)
-  for (std::size_t a = 0; a < n; ++a) {
-    const float e0 = x0 * s0[a] - o0[a], e1 = x1 * s1[a] - o1[a], e2 = x2 * s2[a] - o2[a],
-                e3 = x3 * s3[a] - o3[a], e4 = x4 * s4[a] - o4[a], e5 = x5 * s5[a] - o5[a];
-    const float l = base[a] - e0 * e0 - e1 * e1 - e2 * e2 - e3 * e3 - e4 * e4 - e5 * e5;
-    const float w = exp2_nonpositive(l);
-    sum += w;
-    c0 += w * m0[a];
-    c1 += w * m1[a];
-    c2 += w * m2[a];
-  }
-  return {sum, c0, c1, c2};
+inline Vf splat(float v) {
+  return Vf{} + v;
 }
 
-// The log2 weights t of every gathered component into `t`; returns their maximum.
-[[gnu::noinline]] float log_weights(const Gathered& g, const float* x, float* __restrict t) {
-  const float* __restrict s0 = g.scale[0], * __restrict s1 = g.scale[1], * __restrict s2 = g.scale[2], * __restrict s3 = g.scale[3], * __restrict s4 = g.scale[4], * __restrict s5 = g.scale[5];
-  const float* __restrict o0 = g.offset[0], * __restrict o1 = g.offset[1], * __restrict o2 = g.offset[2], * __restrict o3 = g.offset[3], * __restrict o4 = g.offset[4], * __restrict o5 = g.offset[5];
-  const float* __restrict base = g.base;
-  const float x0 = x[0], x1 = x[1], x2 = x[2], x3 = x[3], x4 = x[4], x5 = x[5];
-  float mx = -std::numeric_limits<float>::infinity();
-  const std::size_t n = g.n;
-#pragma omp simd reduction(max : mx)
-  for (std::size_t a = 0; a < n; ++a) {
-    const float e0 = x0 * s0[a] - o0[a], e1 = x1 * s1[a] - o1[a], e2 = x2 * s2[a] - o2[a],
-                e3 = x3 * s3[a] - o3[a], e4 = x4 * s4[a] - o4[a], e5 = x5 * s5[a] - o5[a];
-    const float l = base[a] - e0 * e0 - e1 * e1 - e2 * e2 - e3 * e3 - e4 * e4 - e5 * e5;
-    t[a] = l;
+// exp2_nonpositive on 16 lanes.
+inline Vf exp2v(Vf x) {
+  x = x < splat(-126.0f) ? splat(-126.0f) : x;
+  const Vf shifter = splat(12582912.0f);
+  const Vf n = (x + shifter) - shifter;
+  const Vf f = x - n;
+  Vf p = splat(1.535336188319500e-4f);
+  p = p * f + 1.339887440266574e-3f;
+  p = p * f + 9.618437357674640e-3f;
+  p = p * f + 5.550332471162809e-2f;
+  p = p * f + 2.402264791363012e-1f;
+  p = p * f + 6.931472028550421e-1f;
+  p = p * f + 1.0f;
+  Vi bits = std::bit_cast<Vi>(p);
+  bits += __builtin_convertvector(n, Vi) << 23;
+  return std::bit_cast<Vf>(bits);
+}
+
+// A block's inputs, lane by lane: x[k][i] is input k of point i, padded to whole vectors.
+struct BlockInputs {
+  alignas(64) float x[kInputs][kMaxBlock];
+};
+
+// Per component (16 floats, one cache line): per input the scale s and offset s mu (the term
+// of Eq. 9 is (x s - s mu)^2 in log2 units), the log2 base weight, the colour means.
+constexpr int kRecord = 16;
+struct alignas(64) Record {
+  float v[kRecord];
+};
+
+inline Vf load(const float* p) {
+  Vf v;
+  std::memcpy(&v, p, sizeof v);
+  return v;
+}
+
+// The sums of a vector of points: 2^t and 2^t mu per colour.
+struct LaneSums {
+  Vf sum, c0, c1, c2;
+};
+
+// Over the kept components `keep[0..na)`, for P vectors of points starting at lane vector
+// v0: the sums of 2^(t - ref) and 2^(t - ref) mu, t = base - sum_k (x_k s_k - o_k)^2, with
+// ref the point's reference (at least its largest t, or close enough that nothing
+// overflows). Vectorised over the points: every component's parameters are broadcast.
+template <int P>
+inline void sum_points(const Record* __restrict rec, const std::uint32_t* __restrict keep,
+                       std::size_t na, const BlockInputs& in, int v0, const Vf* ref,
+                       LaneSums* out) {
+  Vf x[P][kInputs], r[P], s[P], c0[P], c1[P], c2[P];
+  for (int q = 0; q < P; ++q) {
+    for (int d = 0; d < kInputs; ++d) x[q][d] = load(&in.x[d][(v0 + q) * kLanes]);
+    r[q] = ref[v0 + q];
+    s[q] = c0[q] = c1[q] = c2[q] = Vf{};
+  }
+  for (std::size_t a = 0; a < na; ++a) {
+    const float* c = rec[keep[a]].v;
+    for (int q = 0; q < P; ++q) {
+      Vf l = c[12] - r[q];
+      for (int d = 0; d < kInputs; ++d) {
+        const Vf e = x[q][d] * c[d] - c[kInputs + d];
+        l -= e * e;
+      }
+      const Vf w = exp2v(l);
+      s[q] += w;
+      c0[q] += w * c[13];
+      c1[q] += w * c[14];
+      c2[q] += w * c[15];
+    }
+  }
+  for (int q = 0; q < P; ++q) out[q] = {s[q], c0[q], c1[q], c2[q]};
+}
+
+// The largest t over the kept components, per point (for blocks whose bounds are too loose
+// for a common reference).
+inline Vf max_log_weight(const Record* __restrict rec, const std::uint32_t* __restrict keep,
+                         std::size_t na, const BlockInputs& in, int v) {
+  Vf x[kInputs];
+  for (int d = 0; d < kInputs; ++d) x[d] = load(&in.x[d][v * kLanes]);
+  Vf mx = splat(-std::numeric_limits<float>::infinity());
+  for (std::size_t a = 0; a < na; ++a) {
+    const float* c = rec[keep[a]].v;
+    Vf l = splat(c[12]);
+    for (int d = 0; d < kInputs; ++d) {
+      const Vf e = x[d] * c[d] - c[kInputs + d];
+      l -= e * e;
+    }
     mx = l > mx ? l : mx;
   }
   return mx;
-}
-
-// Sum of 2^(t - mx) and 2^(t - mx) mu.
-[[gnu::noinline]] Sums sum_exp(const Gathered& g, const float* __restrict t, float mx) {
-  const float* __restrict m0 = g.colour[0], * __restrict m1 = g.colour[1], * __restrict m2 = g.colour[2];
-  float sum = 0, c0 = 0, c1 = 0, c2 = 0;
-  const std::size_t n = g.n;
-#pragma omp simd reduction(+ : sum, c0, c1, c2)
-  for (std::size_t a = 0; a < n; ++a) {
-    const float w = exp2_nonpositive(t[a] - mx);
-    sum += w;
-    c0 += w * m0[a];
-    c1 += w * m1[a];
-    c2 += w * m2[a];
-  }
-  return {sum, c0, c1, c2};
 }
 
 // x modulo the period, as predict() wraps it (a coordinate already inside is returned as is).
@@ -335,8 +365,9 @@ struct ModelEvaluator::Impl {
   std::array<std::vector<float>, kInputs> scale, offset;
   std::vector<float> base;
   std::array<std::vector<float>, 3> colour;
-  // The same, packed as 16 rows of M: scale 0-5, offset 6-11, base 12, colour 13-15.
-  std::vector<float> packed;
+  // The same, a record of kRecord floats per component: scale 0-5, offset 6-11, base 12,
+  // colour 13-15 (aligned: a record is one cache line).
+  std::vector<Record> record;
   // For the bounds: the means and s^2 per input.
   std::array<std::vector<float>, kInputs> mean_f, scale2_f;
   // Skipping: on when tolerance > 0; a skipped set's sum of 2^(U_m - Lmax) may reach
@@ -406,12 +437,10 @@ namespace {
 // skipped set's sum of 2^(upper_m - Lmax) stays within the budget: its normalised weight at
 // any point is below 2^(upper_m - Lmax). The sum is taken a whole log2 unit of
 // (Lmax - upper) at a time, from the farthest components in.
-[[gnu::noinline]] std::size_t select_components(const ModelEvaluator::Impl& k, const float* in,
-                                                int n, const float* __restrict upper,
-                                                const float* __restrict lower,
-                                                std::uint32_t* __restrict keep,
-                                                std::int32_t* __restrict bucket, double& r,
-                                                double& lmax) {
+[[gnu::noinline]] std::size_t select_components(
+    const ModelEvaluator::Impl& k, const BlockInputs& in, int n, const float* __restrict upper,
+    const float* __restrict lower, std::uint32_t* __restrict keep, std::int32_t* __restrict bucket,
+    double& r, double& lmax) {
   const std::size_t M = k.m;
   float lm = -std::numeric_limits<float>::infinity(), um = lm;
 #pragma omp simd reduction(max : lm, um)
@@ -434,12 +463,11 @@ namespace {
     }
   float exact = std::numeric_limits<float>::infinity();
   for (int i = 0; i < n; ++i) {
-    const float* x = in + std::size_t(i) * kInputs;
     float best = -std::numeric_limits<float>::infinity();
     for (std::size_t j : best_j) {
       float t = k.base[j];
       for (int d = 0; d < kInputs; ++d) {
-        const float e = x[d] * k.scale[std::size_t(d)][j] - k.offset[std::size_t(d)][j];
+        const float e = in.x[d][i] * k.scale[std::size_t(d)][j] - k.offset[std::size_t(d)][j];
         t -= e * e;
       }
       best = std::max(best, t);
@@ -526,15 +554,15 @@ ModelEvaluator::ModelEvaluator(const BtfModel& model, double tolerance) {
       hi[std::size_t(c)] = std::max(hi[std::size_t(c)], mu * k.unit[std::size_t(6 + c)]);
     }
   }
-  k.packed.resize(16 * k.m);
+  k.record.resize(k.m);
   for (std::size_t j = 0; j < k.m; ++j) {
+    float* rec = k.record[j].v;
     for (int i = 0; i < kInputs; ++i) {
-      k.packed[std::size_t(i) * k.m + j] = k.scale[std::size_t(i)][j];
-      k.packed[std::size_t(kInputs + i) * k.m + j] = k.offset[std::size_t(i)][j];
+      rec[i] = k.scale[std::size_t(i)][j];
+      rec[kInputs + i] = k.offset[std::size_t(i)][j];
     }
-    k.packed[12 * k.m + j] = k.base[j];
-    for (int c = 0; c < 3; ++c)
-      k.packed[std::size_t(13 + c) * k.m + j] = k.colour[std::size_t(c)][j];
+    rec[12] = k.base[j];
+    for (int c = 0; c < 3; ++c) rec[13 + c] = k.colour[std::size_t(c)][j];
   }
   const double spread = std::max({hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]});
   if (tolerance > 0.0 && k.m > 1) {
@@ -556,12 +584,6 @@ EvaluationStats ModelEvaluator::evaluate(std::span<const SurfacePoint> points, s
                                          std::span<const std::uint32_t> groups) const {
   if (rgb.size() < points.size() * 3)
     throw Error(Error::Kind::kArgument, "evaluate: the output holds fewer than 3 floats a point");
-  for (const SurfacePoint& p : points)
-    if (!std::isfinite(p.x) || !std::isfinite(p.y) || !(p.light[2] >= 0.0f) || !(p.view[2] >= 0.0f))
-      throw Error(Error::Kind::kArgument,
-                  fmt::format("evaluate: a point ({}, {}) is not finite or has a direction below "
-                              "the horizon",
-                              p.x, p.y));
   const auto t0 = Clock::now();
   const Impl& k = *impl_;
   const std::size_t M = k.m;
@@ -583,106 +605,96 @@ EvaluationStats ModelEvaluator::evaluate(std::span<const SurfacePoint> points, s
   }
   const std::ptrdiff_t blocks = std::ptrdiff_t(bounds.size()) - 1;
   std::uint64_t evaluated = 0;
+  int bad = 0;  // a point that is not finite or has a direction below the horizon
   const float u2 = float(1.0 / k.unit[2]), u3 = float(1.0 / k.unit[3]), u4 = float(1.0 / k.unit[4]),
               u5 = float(1.0 / k.unit[5]);
-#pragma omp parallel reduction(+ : evaluated)
+#pragma omp parallel reduction(+ : evaluated) reduction(| : bad)
   {
-    std::vector<float> in(std::size_t(kMaxBlock) * kInputs);
+    auto in = std::make_unique<BlockInputs>();
     std::vector<float> upper(M), lower(M), scratch(M);
     std::vector<std::int32_t> bucket(M);
     std::vector<std::uint32_t> keep(M);
-    // The kept components, gathered: s0..s5, o0..o5, base, r, g, b.
-    std::vector<float> g(16 * M + 16);
-    std::vector<float> t(M);
+    std::array<Vf, kMaxBlock / kLanes> ref;
+    std::array<LaneSums, kMaxBlock / kLanes> sums;
     std::uint32_t hint_l = std::numeric_limits<std::uint32_t>::max(), hint_v = hint_l;
 #pragma omp for schedule(dynamic, 4)
     for (std::ptrdiff_t blk = 0; blk < blocks; ++blk) {
       const std::size_t p0 = bounds[std::size_t(blk)];
       const int n = int(bounds[std::size_t(blk) + 1] - p0);
       if (n == 0) continue;
-      // 1. The inputs in model units.
       const SurfacePoint* pts = &points[p0];
+      int block_bad = 0;
       for (int i = 0; i < n; ++i) {
-        in[std::size_t(i) * kInputs] = float(wrap(pts[i].x, k.width));
-        in[std::size_t(i) * kInputs + 1] = float(wrap(pts[i].y, k.height));
+        const SurfacePoint& p = pts[i];
+        block_bad |= !std::isfinite(p.x) || !std::isfinite(p.y) || !(p.light[2] >= 0.0f) ||
+                     !(p.view[2] >= 0.0f);
+      }
+      if (block_bad) {
+        bad = 1;
+        continue;
+      }
+      // 1. The inputs in model units, lane by lane; the last point repeated to whole vectors.
+      const int nv = (n + kLanes - 1) / kLanes, padded = nv * kLanes;
+      for (int i = 0; i < n; ++i) {
+        in->x[0][i] = float(wrap(pts[i].x, k.width));
+        in->x[1][i] = float(wrap(pts[i].y, k.height));
       }
       // Onion-slice angles (directions.hpp): alpha = atan2(y, z), beta = asin(x) =
       // atan2(x, sqrt(1 - x^2)); z >= 0.
 #pragma omp simd
       for (int i = 0; i < n; ++i) {
         const SurfacePoint& p = pts[i];
-        float* x = &in[std::size_t(i) * kInputs];
         const float lx = std::clamp(p.light[0], -1.0f, 1.0f),
                     vx = std::clamp(p.view[0], -1.0f, 1.0f);
-        x[2] = atan2_right(p.light[1], p.light[2]) * u2;
-        x[3] = atan2_right(lx, std::sqrt((1.0f - lx) * (1.0f + lx))) * u3;
-        x[4] = atan2_right(p.view[1], p.view[2]) * u4;
-        x[5] = atan2_right(vx, std::sqrt((1.0f - vx) * (1.0f + vx))) * u5;
+        in->x[2][i] = atan2_right(p.light[1], p.light[2]) * u2;
+        in->x[3][i] = atan2_right(lx, std::sqrt((1.0f - lx) * (1.0f + lx))) * u3;
+        in->x[4][i] = atan2_right(p.view[1], p.view[2]) * u4;
+        in->x[5][i] = atan2_right(vx, std::sqrt((1.0f - vx) * (1.0f + vx))) * u5;
       }
+      for (int d = 0; d < kInputs; ++d)
+        for (int i = n; i < padded; ++i) in->x[d][i] = in->x[d][n - 1];
       // 2. The box, and the bounds of every component's log weight over it.
-      const Intervals bx = wrapped_box(&in[0], n, kInputs, k.width);
-      const Intervals by = wrapped_box(&in[1], n, kInputs, k.height);
+      const Intervals bx = wrapped_box(in->x[0], n, 1, k.width);
+      const Intervals by = wrapped_box(in->x[1], n, 1, k.height);
       std::array<float, kInputs> lo{}, hi{};
       for (int d = 2; d < kInputs; ++d) {
-        lo[std::size_t(d)] = hi[std::size_t(d)] = in[std::size_t(d)];
-        for (int i = 1; i < n; ++i) {
-          lo[std::size_t(d)] = std::min(lo[std::size_t(d)], in[std::size_t(i * kInputs + d)]);
-          hi[std::size_t(d)] = std::max(hi[std::size_t(d)], in[std::size_t(i * kInputs + d)]);
+        float a = in->x[d][0], b = a;
+#pragma omp simd reduction(min : a) reduction(max : b)
+        for (int i = 0; i < n; ++i) {
+          a = std::min(a, in->x[d][i]);
+          b = std::max(b, in->x[d][i]);
         }
+        lo[std::size_t(d)] = a;
+        hi[std::size_t(d)] = b;
       }
       std::size_t kept = 0;
       double r = 0.0, lmax = 0.0;
       const bool cull = k.cull;
       if (cull) {
         bound_log_weights(k, bx, by, lo, hi, upper.data(), lower.data(), scratch.data());
-        kept = select_components(k, in.data(), n, upper.data(), lower.data(), keep.data(),
-                                 bucket.data(), r, lmax);
+        kept = select_components(k, *in, n, upper.data(), lower.data(), keep.data(), bucket.data(),
+                                 r, lmax);
       } else {
         for (std::size_t j = 0; j < M; ++j) keep[kept++] = std::uint32_t(j);
       }
-      // 3. Gather the kept components.
-      const std::size_t na = kept;
-      float* gs[kInputs];
-      float* go[kInputs];
-      for (int d = 0; d < kInputs; ++d) {
-        gs[d] = &g[std::size_t(d) * na];
-        go[d] = &g[std::size_t(kInputs + d) * na];
-      }
-      float* gb = &g[std::size_t(2 * kInputs) * na];
-      float* gc0 = &g[std::size_t(2 * kInputs + 1) * na];
-      float* gc1 = &g[std::size_t(2 * kInputs + 2) * na];
-      float* gc2 = &g[std::size_t(2 * kInputs + 3) * na];
-      // One pass with the block's reference r when every point's largest term is then far
-      // from underflow (r - Lmax <= 56 in log2 units), else a per-point maximum.
+      evaluated += std::uint64_t(kept) * std::uint64_t(n);
+      // 3. The sums, with the block's reference r when every point's largest term is then far
+      // from underflow (r - Lmax <= 56 in log2 units), else each point's own maximum.
+      const Record* rec = k.record.data();
       const bool one_pass = cull && r - lmax <= 56.0;
-      const float ref = one_pass ? float(r) : 0.0f;
-      for (std::size_t row = 0; row < 16; ++row) {
-        const float* __restrict src = &k.packed[row * M];
-        float* __restrict dst = &g[row * na];
-        const std::uint32_t* __restrict idx = keep.data();
-#pragma omp simd
-        for (std::size_t a = 0; a < na; ++a) dst[a] = src[idx[a]];
-      }
-#pragma omp simd
-      for (std::size_t a = 0; a < na; ++a) gb[a] -= ref;
-      evaluated += std::uint64_t(na) * std::uint64_t(n);
-      const Gathered gathered{{gs[0], gs[1], gs[2], gs[3], gs[4], gs[5]},
-                              {go[0], go[1], go[2], go[3], go[4], go[5]},
-                              gb,
-                              {gc0, gc1, gc2},
-                              na};
+      for (int v = 0; v < nv; ++v)
+        ref[std::size_t(v)] =
+            one_pass ? splat(float(r)) : max_log_weight(rec, keep.data(), kept, *in, v);
+      int v = 0;
+      for (; v + 2 <= nv; v += 2)
+        sum_points<2>(rec, keep.data(), kept, *in, v, ref.data(), &sums[std::size_t(v)]);
+      if (v < nv) sum_points<1>(rec, keep.data(), kept, *in, v, ref.data(), &sums[std::size_t(v)]);
       for (int i = 0; i < n; ++i) {
-        const float* x = &in[std::size_t(i) * kInputs];
-        Sums sums;
-        if (one_pass) {
-          sums = sum_weights(gathered, x);
-        } else {
-          const float mx = log_weights(gathered, x, t.data());
-          sums = sum_exp(gathered, t.data(), mx);
-        }
-        const float sum = sums.sum, c0 = sums.c0, c1 = sums.c1, c2 = sums.c2;
+        const LaneSums& ls = sums[std::size_t(i / kLanes)];
+        const int lane = i % kLanes;
+        const float sum = ls.sum[lane], c0 = ls.c0[lane], c1 = ls.c1[lane], c2 = ls.c2[lane];
         // Eq. (11): the conditional expectation plus the mean BRDF at these directions.
-        const SurfacePoint& p = points[p0 + std::size_t(i)];
+        const SurfacePoint& p = pts[i];
         const auto wl = k.lights_interp.weights(Vec3{p.light[0], p.light[1], p.light[2]}, hint_l);
         const auto wv = k.views_interp.weights(Vec3{p.view[0], p.view[1], p.view[2]}, hint_v);
         std::array<double, 3> mb{0, 0, 0};
@@ -690,9 +702,9 @@ EvaluationStats ModelEvaluator::evaluate(std::span<const SurfacePoint> points, s
           for (int b = 0; b < 3; ++b) {
             const double w = wl.weight[std::size_t(a)] * wv.weight[std::size_t(b)];
             if (w == 0.0) continue;
-            const float* v =
+            const float* val =
                 &k.mean_brdf[(wl.index[std::size_t(a)] * k.views + wv.index[std::size_t(b)]) * 3];
-            for (int c = 0; c < 3; ++c) mb[std::size_t(c)] += w * v[c];
+            for (int c = 0; c < 3; ++c) mb[std::size_t(c)] += w * val[c];
           }
         float* o = &rgb[(p0 + std::size_t(i)) * 3];
         o[0] = float(double(c0 / sum) * k.unit[6] + double(float(mb[0])));
@@ -701,6 +713,14 @@ EvaluationStats ModelEvaluator::evaluate(std::span<const SurfacePoint> points, s
       }
     }
   }
+  if (bad)
+    for (const SurfacePoint& p : points)
+      if (!std::isfinite(p.x) || !std::isfinite(p.y) || !(p.light[2] >= 0.0f) ||
+          !(p.view[2] >= 0.0f))
+        throw Error(Error::Kind::kArgument,
+                    fmt::format("evaluate: a point ({}, {}) is not finite or has a direction "
+                                "below the horizon",
+                                p.x, p.y));
   EvaluationStats st;
   st.points = points.size();
   st.nominal = std::uint64_t(points.size()) * std::uint64_t(M);

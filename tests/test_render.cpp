@@ -11,6 +11,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <nlohmann/json.hpp>
 #include <numbers>
 #include <random>
@@ -274,6 +275,20 @@ TEST(Render, ModelKernelEqualsPredict) {
   }
   std::vector<float> want(pts.size() * 3);
   predict(m, queries, want);
+  {
+    // A point that is not finite, or a direction below the horizon: an error, wherever the
+    // point lies among the others.
+    const ModelEvaluator ev(m, 0.1);
+    std::vector<float> got(pts.size() * 3);
+    for (const std::size_t at : {std::size_t(0), std::size_t(1234)}) {
+      std::vector<SurfacePoint> bad = pts;
+      bad[at].x = std::numeric_limits<float>::quiet_NaN();
+      EXPECT_THROW(ev.evaluate(bad, got), Error);
+      bad = pts;
+      bad[at].view[2] = -0.5f;
+      EXPECT_THROW(ev.evaluate(bad, got), Error);
+    }
+  }
   for (const double tolerance : {0.0, 1e-3, 0.05}) {
     const ModelEvaluator ev(m, tolerance);
     std::vector<float> got(pts.size() * 3);
