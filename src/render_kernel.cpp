@@ -117,7 +117,37 @@ inline Vf exp2v(Vf x) {
 // A block's inputs, lane by lane: x[k][i] is input k of point i, padded to whole vectors.
 struct BlockInputs {
   alignas(64) float x[kInputs][kMaxBlock];
+  // The light and view vectors (x, y, z each), for the mean BRDF.
+  alignas(64) float dir[6][kMaxBlock];
+  // The sums of sum_points, point by point: 2^t and 2^t mu per colour.
+  alignas(64) float sum[4][kMaxBlock];
 };
+
+// The barycentric weights of a triangle of directions as affine functions of the projected
+// direction (qx, qy): w_i = c[i][0] + c[i][1] qx + c[i][2] qy, the formula of
+// DirectionInterpolator rearranged. `ok` is false for a degenerate triangle.
+struct AffineTriangle {
+  float c[3][3] = {};
+  bool ok = false;
+};
+
+AffineTriangle affine_triangle(const std::vector<std::array<double, 2>>& xy,
+                               const std::array<std::uint32_t, 3>& t) {
+  AffineTriangle r;
+  if (t[0] == t[1] || t[1] == t[2] || t[0] == t[2]) return r;
+  const auto &a = xy[t[0]], &b = xy[t[1]], &c = xy[t[2]];
+  const double area = (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0]);
+  if (!(std::abs(area) > 1e-12)) return r;
+  const double wa[3] = {b[0] * c[1] - b[1] * c[0], b[1] - c[1], c[0] - b[0]};
+  const double wb[3] = {c[0] * a[1] - c[1] * a[0], c[1] - a[1], a[0] - c[0]};
+  for (int i = 0; i < 3; ++i) {
+    r.c[0][i] = float(wa[i] / area);
+    r.c[1][i] = float(wb[i] / area);
+    r.c[2][i] = float((i == 0 ? 1.0 : 0.0) - (wa[i] + wb[i]) / area);
+  }
+  r.ok = true;
+  return r;
+}
 
 // Per component (16 floats, one cache line): per input the scale s and offset s mu (the term
 // of Eq. 9 is (x s - s mu)^2 in log2 units), the log2 base weight, the colour means.
@@ -377,8 +407,13 @@ struct ModelEvaluator::Impl {
   std::vector<float> mean_brdf;
   std::size_t views = 0;
   FastDirectionInterpolator lights_interp, views_interp;
+  // The directions projected on the disk, (x, y) of their unit vectors.
+  std::vector<std::array<double, 2>> light_xy, view_xy;
 
-  explicit Impl(const BtfModel& model) : lights_interp(model.lights), views_interp(model.views) {}
+  explicit Impl(const BtfModel& model) : lights_interp(model.lights), views_interp(model.views) {
+    for (const Direction& d : model.lights) light_xy.push_back({to_vector(d).x, to_vector(d).y});
+    for (const Direction& d : model.views) view_xy.push_back({to_vector(d).x, to_vector(d).y});
+  }
 };
 
 namespace {
@@ -616,6 +651,7 @@ EvaluationStats ModelEvaluator::evaluate(std::span<const SurfacePoint> points, s
     std::vector<std::uint32_t> keep(M);
     std::array<Vf, kMaxBlock / kLanes> ref;
     std::array<LaneSums, kMaxBlock / kLanes> sums;
+    std::vector<std::uint8_t> exact(kMaxBlock);
     std::uint32_t hint_l = std::numeric_limits<std::uint32_t>::max(), hint_v = hint_l;
 #pragma omp for schedule(dynamic, 4)
     for (std::ptrdiff_t blk = 0; blk < blocks; ++blk) {
@@ -650,6 +686,10 @@ EvaluationStats ModelEvaluator::evaluate(std::span<const SurfacePoint> points, s
         in->x[3][i] = atan2_right(lx, std::sqrt((1.0f - lx) * (1.0f + lx))) * u3;
         in->x[4][i] = atan2_right(p.view[1], p.view[2]) * u4;
         in->x[5][i] = atan2_right(vx, std::sqrt((1.0f - vx) * (1.0f + vx))) * u5;
+        for (int c = 0; c < 3; ++c) {
+          in->dir[c][i] = p.light[std::size_t(c)];
+          in->dir[3 + c][i] = p.view[std::size_t(c)];
+        }
       }
       for (int d = 0; d < kInputs; ++d)
         for (int i = n; i < padded; ++i) in->x[d][i] = in->x[d][n - 1];
@@ -689,11 +729,65 @@ EvaluationStats ModelEvaluator::evaluate(std::span<const SurfacePoint> points, s
       for (; v + 2 <= nv; v += 2)
         sum_points<2>(rec, keep.data(), kept, *in, v, ref.data(), &sums[std::size_t(v)]);
       if (v < nv) sum_points<1>(rec, keep.data(), kept, *in, v, ref.data(), &sums[std::size_t(v)]);
+      for (int w = 0; w < nv; ++w) {
+        std::memcpy(&in->sum[0][w * kLanes], &sums[std::size_t(w)].sum, sizeof(Vf));
+        std::memcpy(&in->sum[1][w * kLanes], &sums[std::size_t(w)].c0, sizeof(Vf));
+        std::memcpy(&in->sum[2][w * kLanes], &sums[std::size_t(w)].c1, sizeof(Vf));
+        std::memcpy(&in->sum[3][w * kLanes], &sums[std::size_t(w)].c2, sizeof(Vf));
+      }
+      // 4. Eq. (11): the conditional expectation plus the mean BRDF at these directions,
+      // interpolated over the measured directions. The block's directions vary little: the
+      // first point's light and view triangles (found as DirectionInterpolator finds them)
+      // serve every point that lies well inside both (every weight above 1e-4, so that no
+      // other triangle holds it), in one vectorised pass; the others take the exact look-up.
+      const auto mean_brdf = [&](const DirectionInterpolator::Weights& wl,
+                                 const DirectionInterpolator::Weights& wv, int a, int b, int c) {
+        return k.mean_brdf[(wl.index[std::size_t(a)] * k.views + wv.index[std::size_t(b)]) * 3 +
+                           std::size_t(c)];
+      };
+      const float unit0 = float(k.unit[6]), unit1 = float(k.unit[7]), unit2 = float(k.unit[8]);
+      const auto wl0 =
+          k.lights_interp.weights(Vec3{pts[0].light[0], pts[0].light[1], pts[0].light[2]}, hint_l);
+      const auto wv0 =
+          k.views_interp.weights(Vec3{pts[0].view[0], pts[0].view[1], pts[0].view[2]}, hint_v);
+      const AffineTriangle tl = affine_triangle(k.light_xy, wl0.index),
+                           tv = affine_triangle(k.view_xy, wv0.index);
+      float table[3][3][3];
+      for (int a = 0; a < 3; ++a)
+        for (int b = 0; b < 3; ++b)
+          for (int c = 0; c < 3; ++c) table[a][b][c] = mean_brdf(wl0, wv0, a, b, c);
+      const bool fast = tl.ok && tv.ok;
+      float* out = &rgb[p0 * 3];
+#pragma omp simd
       for (int i = 0; i < n; ++i) {
-        const LaneSums& ls = sums[std::size_t(i / kLanes)];
-        const int lane = i % kLanes;
-        const float sum = ls.sum[lane], c0 = ls.c0[lane], c1 = ls.c1[lane], c2 = ls.c2[lane];
-        // Eq. (11): the conditional expectation plus the mean BRDF at these directions.
+        float q[2][2];
+        for (int s = 0; s < 2; ++s) {
+          const float x = in->dir[3 * s][i], y = in->dir[3 * s + 1][i],
+                      z = std::max(in->dir[3 * s + 2][i], 0.0f);
+          const float inv = 1.0f / std::sqrt(x * x + y * y + z * z);
+          q[s][0] = x * inv;
+          q[s][1] = y * inv;
+        }
+        float wl[3], wv[3];
+        for (int a = 0; a < 3; ++a) {
+          wl[a] = tl.c[a][0] + tl.c[a][1] * q[0][0] + tl.c[a][2] * q[0][1];
+          wv[a] = tv.c[a][0] + tv.c[a][1] * q[1][0] + tv.c[a][2] * q[1][1];
+        }
+        const float m = std::min({wl[0], wl[1], wl[2], wv[0], wv[1], wv[2]});
+        float mb[3] = {0, 0, 0};
+        for (int a = 0; a < 3; ++a)
+          for (int b = 0; b < 3; ++b) {
+            const float w = wl[a] * wv[b];
+            for (int c = 0; c < 3; ++c) mb[c] += w * table[a][b][c];
+          }
+        exact[std::size_t(i)] = !(fast && m > 1e-4f);
+        const float inv_sum = 1.0f / in->sum[0][i];
+        out[i * 3] = in->sum[1][i] * inv_sum * unit0 + mb[0];
+        out[i * 3 + 1] = in->sum[2][i] * inv_sum * unit1 + mb[1];
+        out[i * 3 + 2] = in->sum[3][i] * inv_sum * unit2 + mb[2];
+      }
+      for (int i = 0; i < n; ++i) {
+        if (!exact[std::size_t(i)]) continue;
         const SurfacePoint& p = pts[i];
         const auto wl = k.lights_interp.weights(Vec3{p.light[0], p.light[1], p.light[2]}, hint_l);
         const auto wv = k.views_interp.weights(Vec3{p.view[0], p.view[1], p.view[2]}, hint_v);
@@ -702,14 +796,13 @@ EvaluationStats ModelEvaluator::evaluate(std::span<const SurfacePoint> points, s
           for (int b = 0; b < 3; ++b) {
             const double w = wl.weight[std::size_t(a)] * wv.weight[std::size_t(b)];
             if (w == 0.0) continue;
-            const float* val =
-                &k.mean_brdf[(wl.index[std::size_t(a)] * k.views + wv.index[std::size_t(b)]) * 3];
-            for (int c = 0; c < 3; ++c) mb[std::size_t(c)] += w * val[c];
+            for (int c = 0; c < 3; ++c) mb[std::size_t(c)] += w * mean_brdf(wl, wv, a, b, c);
           }
-        float* o = &rgb[(p0 + std::size_t(i)) * 3];
-        o[0] = float(double(c0 / sum) * k.unit[6] + double(float(mb[0])));
-        o[1] = float(double(c1 / sum) * k.unit[7] + double(float(mb[1])));
-        o[2] = float(double(c2 / sum) * k.unit[8] + double(float(mb[2])));
+        const float inv_sum = 1.0f / in->sum[0][i];
+        float* o = &out[i * 3];
+        o[0] = in->sum[1][i] * inv_sum * unit0 + float(mb[0]);
+        o[1] = in->sum[2][i] * inv_sum * unit1 + float(mb[1]);
+        o[2] = in->sum[3][i] * inv_sum * unit2 + float(mb[2]);
       }
     }
   }
