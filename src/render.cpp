@@ -41,13 +41,6 @@ double since(Clock::time_point t) {
   return std::chrono::duration<double>(Clock::now() - t).count();
 }
 
-float wrap_coordinate(double v, int period) {
-  const double r = v - double(period) * std::floor(v / double(period));
-  float f = float(r);
-  if (f < 0.0f) f = 0.0f;
-  return f >= float(period) ? 0.0f : f;
-}
-
 // A vertex in camera space and on the screen.
 struct Projected {
   double sx = 0, sy = 0;  // screen position, pixels (y down)
@@ -169,17 +162,77 @@ SurfaceBuffer rasterize(const Mesh& mesh_in, const Camera& camera, const Light& 
     for (int k = b0; k <= b1; ++k) band_tris[std::size_t(k)].push_back(t);
   }
 
-  // The visibility buffer: triangle and perspective-correct barycentric coordinates.
+  // Per pixel: the surface point, its frame, and the light and view in that frame; 0 the
+  // background, 1 in the dark, 2 lit. The vertex attributes in float, one array each
+  // (position, normal, tangent, bitangent: x, y, z; u, v), and each triangle's vertices and
+  // (unnormalised) face normal, for a set-up vectorised over the pixels.
+  enum { kPx, kPy, kPz, kNx, kNy, kNz, kTx, kTy, kTz, kBx, kBy, kBz, kU, kV, kAttributes };
+  const std::size_t nvert = m.position.size(), ntri = m.triangles.size();
+  std::array<std::vector<float>, kAttributes> attr;
+  for (auto& a : attr) a.resize(nvert);
+  for (std::size_t i = 0; i < nvert; ++i) {
+    const Vec3* v[4] = {&m.position[i], &m.normal[i], &m.tangent[i], &m.bitangent[i]};
+    for (int k = 0; k < 4; ++k) {
+      attr[std::size_t(3 * k)][i] = float(v[k]->x);
+      attr[std::size_t(3 * k + 1)][i] = float(v[k]->y);
+      attr[std::size_t(3 * k + 2)][i] = float(v[k]->z);
+    }
+    attr[kU][i] = float(m.uv[i][0]);
+    attr[kV][i] = float(m.uv[i][1]);
+  }
+  std::vector<std::uint32_t> corner(3 * ntri);
+  std::vector<float> face(3 * ntri);
+  for (std::size_t t = 0; t < ntri; ++t) {
+    const auto& tri = m.triangles[t];
+    const Vec3 g =
+        cross(m.position[tri[1]] - m.position[tri[0]], m.position[tri[2]] - m.position[tri[0]]);
+    for (int k = 0; k < 3; ++k) corner[3 * t + std::size_t(k)] = tri[std::size_t(k)];
+    face[3 * t] = float(g.x);
+    face[3 * t + 1] = float(g.y);
+    face[3 * t + 2] = float(g.z);
+  }
+  const float texel = float(settings.repeat * tile_width);  // tile pixels per unit of u and v
+  const Vec3 light_dir = normalized(light.direction);
+  const bool point_light = light.kind == Light::Kind::kPoint;
+  const float ldx = float(light_dir.x), ldy = float(light_dir.y), ldz = float(light_dir.z),
+              lpx = float(light.position.x), lpy = float(light.position.y),
+              lpz = float(light.position.z), intensity = float(light.intensity),
+              ex = float(camera.eye.x), ey = float(camera.eye.y), ez = float(camera.eye.z),
+              tw = float(tile_width), th = float(tile_height);
+
+  // Each band of kBand rows is a row of screen blocks of B x B pixels: rasterised, set up, and
+  // its lit points stored in block order (the model evaluator bounds the model over a block).
+  constexpr int B = SurfaceBuffer::kBlockSize;
+  static_assert(B == kBand, "a band is one row of screen blocks");
+  const int bw = (W + B - 1) / B;
   const std::size_t npix = std::size_t(W) * std::size_t(H);
-  std::vector<std::int32_t> tri_of(npix, -1);
-  std::vector<std::array<double, 2>> bary(npix);
+  SurfaceBuffer out;
+  out.width = W;
+  out.height = H;
+  out.coverage.assign(npix, 0);
+  std::vector<std::vector<SurfacePoint>> band_points(static_cast<std::size_t>(bands));
+  std::vector<std::vector<std::uint32_t>> band_pixel(static_cast<std::size_t>(bands)),
+      band_count(static_cast<std::size_t>(bands));
 #pragma omp parallel
   {
-    std::vector<double> inv_depth(std::size_t(kBand) * std::size_t(W));
+    const std::size_t band_pixels = std::size_t(kBand) * std::size_t(W);
+    std::vector<double> inv_depth(band_pixels);
+    std::vector<std::int32_t> tri_of(band_pixels);
+    std::vector<std::array<double, 2>> bary(band_pixels);
+    // The band's covered pixels in block order, and their set-up.
+    std::vector<std::uint32_t> pix(band_pixels);
+    std::vector<std::int32_t> ptri(band_pixels);
+    std::vector<float> b0(band_pixels), b1(band_pixels);
+    std::array<std::vector<float>, 9> res;  // x, y, light, view, irradiance
+    for (auto& r : res) r.resize(band_pixels);
+    std::vector<std::uint8_t> status(band_pixels);
+    std::vector<std::uint32_t> block_end(std::size_t(bw) + 1);
 #pragma omp for schedule(dynamic, 1)
     for (int band = 0; band < bands; ++band) {
       const int y0 = band * kBand, y1 = std::min(H, y0 + kBand);
       std::fill(inv_depth.begin(), inv_depth.end(), 0.0);
+      std::fill(tri_of.begin(), tri_of.end(), -1);
+      // The visibility buffer: triangle and perspective-correct barycentric coordinates.
       for (std::uint32_t t : band_tris[std::size_t(band)]) {
         const auto& tri = m.triangles[t];
         const Projected &a = pv[tri[0]], &b = pv[tri[1]], &c = pv[tri[2]];
@@ -203,125 +256,185 @@ SurfaceBuffer rasterize(const Mesh& mesh_in, const Camera& camera, const Light& 
             const double wc = ((a.sx - px) * (b.sy - py) - (a.sy - py) * (b.sx - px)) * inv_area;
             if (wa < 0 || wb < 0 || wc < 0) continue;  // edges shared: no holes between
             const double iz = (wa * ia + wb * ib + wc * ic) / (wa + wb + wc);
-            double& zb = inv_depth[std::size_t(y - y0) * std::size_t(W) + std::size_t(x)];
-            if (iz <= zb) continue;  // 1/depth: larger is nearer
-            zb = iz;
-            const std::size_t p = std::size_t(y) * std::size_t(W) + std::size_t(x);
-            tri_of[p] = std::int32_t(t);
+            const std::size_t q = std::size_t(y - y0) * std::size_t(W) + std::size_t(x);
+            if (iz <= inv_depth[q]) continue;  // 1/depth: larger is nearer
+            inv_depth[q] = iz;
+            tri_of[q] = std::int32_t(t);
             const double norm = 1.0 / (wa * ia + wb * ib + wc * ic);
-            bary[p] = {wa * ia * norm, wb * ib * norm};
+            bary[q] = {wa * ia * norm, wb * ib * norm};
           }
         }
       }
-    }
-  }
-
-  // Per pixel: the surface point, its frame, and the light and view in that frame; 0 the
-  // background, 1 in the dark, 2 lit (`s` set).
-  const double texel = settings.repeat * tile_width;  // tile pixels per unit of u and v
-  const Vec3 light_dir = normalized(light.direction);
-  // The vertex attributes side by side, and each triangle's (unnormalised) face normal.
-  struct Attributes {
-    Vec3 position, normal, tangent, bitangent;
-    double u, v;
-  };
-  std::vector<Attributes> va(m.position.size());
-  for (std::size_t i = 0; i < va.size(); ++i)
-    va[i] = {m.position[i], m.normal[i], m.tangent[i], m.bitangent[i], m.uv[i][0], m.uv[i][1]};
-  std::vector<Vec3> face(m.triangles.size());
-  for (std::size_t t = 0; t < face.size(); ++t) {
-    const auto& tri = m.triangles[t];
-    face[t] =
-        cross(m.position[tri[1]] - m.position[tri[0]], m.position[tri[2]] - m.position[tri[0]]);
-  }
-  auto setup = [&](std::size_t p, SurfacePoint& s) -> std::uint8_t {
-    if (tri_of[p] < 0) return 0;
-    const auto& tri = m.triangles[std::size_t(tri_of[p])];
-    const double l0 = bary[p][0], l1 = bary[p][1], l2 = 1.0 - l0 - l1;
-    const Attributes &a0 = va[tri[0]], &a1 = va[tri[1]], &a2 = va[tri[2]];
-    auto lerp = [&](Vec3 Attributes::*f) { return a0.*f * l0 + a1.*f * l1 + a2.*f * l2; };
-    const Vec3 pos = lerp(&Attributes::position);
-    const Vec3& geo = face[std::size_t(tri_of[p])];
-    Vec3 nrm = lerp(&Attributes::normal);
-    const double nl = length(nrm);
-    nrm = nl > 1e-12 ? nrm * (1.0 / nl) : normalized(geo);
-    // The frame: tangent along +u made normal to the normal; bitangent normal to both, on
-    // the side of +v (a mirrored UV layout gives a mirrored, still consistent, frame).
-    Vec3 tan = lerp(&Attributes::tangent);
-    tan = tan - nrm * dot(tan, nrm);
-    const double tl = length(tan);
-    tan = tl > 1e-12 ? tan * (1.0 / tl) : any_perpendicular(nrm);
-    Vec3 bit = cross(nrm, tan);
-    if (dot(bit, lerp(&Attributes::bitangent)) < 0) bit = bit * -1.0;
-    // Seen from behind (an open surface such as the cloth), the back side shows the material
-    // too: the normal turns toward the viewer.
-    const Vec3 to_eye = normalized(camera.eye - pos);
-    if ((dot(geo, nrm) < 0) != (dot(geo, to_eye) < 0)) nrm = nrm * -1.0;
-    Vec3 to_light = light_dir;
-    double irradiance = light.intensity;
-    if (light.kind == Light::Kind::kPoint) {
-      const Vec3 d = light.position - pos;
-      const double d2 = dot(d, d);
-      to_light = d2 > 0 ? d * (1.0 / std::sqrt(d2)) : nrm;
-      irradiance = d2 > 0 ? light.intensity / d2 : 0.0;
-    }
-    const Vec3 l{dot(to_light, tan), dot(to_light, bit), dot(to_light, nrm)};
-    // In the dark: the light is below this point's horizon.
-    if (!(l.z > 0.0) || !(irradiance > 0.0)) return 1;
-    Vec3 v{dot(to_eye, tan), dot(to_eye, bit), dot(to_eye, nrm)};
-    // A shading normal may turn slightly away from the eye at a silhouette: the view is taken
-    // on the horizon there.
-    if (v.z < 0.0) {
-      v = normalized(Vec3{v.x, v.y, 0.0});
-      if (!(length(v) > 0.5)) v = {0, 0, 1};
-    }
-    const double u = a0.u * l0 + a1.u * l1 + a2.u * l2;
-    const double w = a0.v * l0 + a1.v * l1 + a2.v * l2;
-    s.x = wrap_coordinate(u * texel, tile_width);
-    s.y = wrap_coordinate(w * texel, tile_height);
-    s.light = {float(l.x), float(l.y), float(l.z)};  // a unit vector in an orthonormal frame
-    s.view = {float(v.x), float(v.y), float(v.z)};
-    s.irradiance = float(irradiance);
-    return 2;
-  };
-
-  // Screen blocks of B x B pixels, in parallel: each block's lit points in a slot of its
-  // own, then packed in block order (the model evaluator bounds the model over a block).
-  constexpr int B = SurfaceBuffer::kBlockSize;
-  const int bw = (W + B - 1) / B, bh = (H + B - 1) / B;
-  const std::size_t nblocks = std::size_t(bw) * std::size_t(bh), slot = std::size_t(B) * B;
-  SurfaceBuffer out;
-  out.width = W;
-  out.height = H;
-  out.coverage.assign(npix, 0);
-  std::vector<SurfacePoint> staged(nblocks * slot);
-  std::vector<std::uint32_t> staged_pixel(nblocks * slot), count(nblocks, 0);
-#pragma omp parallel for schedule(dynamic, 4)
-  for (std::ptrdiff_t bi = 0; bi < std::ptrdiff_t(nblocks); ++bi) {
-    const int bx = int(bi % bw) * B, by = int(bi / bw) * B;
-    std::uint32_t k = 0;
-    const std::size_t base = std::size_t(bi) * slot;
-    for (int y = by; y < std::min(H, by + B); ++y)
-      for (int x = bx; x < std::min(W, bx + B); ++x) {
-        const std::size_t p = std::size_t(y) * std::size_t(W) + std::size_t(x);
-        out.coverage[p] = setup(p, staged[base + k]);
-        if (out.coverage[p] == 2) staged_pixel[base + k++] = std::uint32_t(p);
+      // The covered pixels, block by block, each block row by row.
+      std::size_t n = 0;
+      block_end[0] = 0;
+      for (int bx = 0; bx < bw; ++bx) {
+        for (int y = y0; y < y1; ++y)
+          for (int x = bx * B; x < std::min(W, bx * B + B); ++x) {
+            const std::size_t q = std::size_t(y - y0) * std::size_t(W) + std::size_t(x);
+            if (tri_of[q] < 0) continue;
+            pix[n] = std::uint32_t(std::size_t(y) * std::size_t(W) + std::size_t(x));
+            ptri[n] = tri_of[q];
+            b0[n] = float(bary[q][0]);
+            b1[n] = float(bary[q][1]);
+            ++n;
+          }
+        block_end[std::size_t(bx) + 1] = std::uint32_t(n);
       }
-    count[std::size_t(bi)] = k;
+      const std::uint32_t* __restrict cn = corner.data();
+      const float* __restrict fc = face.data();
+      const float* ap[kAttributes];
+      for (int a = 0; a < kAttributes; ++a) ap[a] = attr[std::size_t(a)].data();
+      float* __restrict r_x = res[0].data();
+      float* __restrict r_y = res[1].data();
+      float* __restrict r_l0 = res[2].data();
+      float* __restrict r_l1 = res[3].data();
+      float* __restrict r_l2 = res[4].data();
+      float* __restrict r_v0 = res[5].data();
+      float* __restrict r_v1 = res[6].data();
+      float* __restrict r_v2 = res[7].data();
+      float* __restrict r_irr = res[8].data();
+      std::uint8_t* __restrict st = status.data();
+#pragma omp simd
+      for (std::size_t k = 0; k < n; ++k) {
+        const std::size_t t = std::size_t(ptri[k]);
+        const std::uint32_t i0 = cn[3 * t], i1 = cn[3 * t + 1], i2 = cn[3 * t + 2];
+        const float l0 = b0[k], l1 = b1[k], l2 = 1.0f - l0 - l1;
+        const auto lerp = [&](int a) {
+          const float* v = ap[a];
+          return v[i0] * l0 + v[i1] * l1 + v[i2] * l2;
+        };
+        const float px = lerp(kPx), py = lerp(kPy), pz = lerp(kPz);
+        const float gx = fc[3 * t], gy = fc[3 * t + 1], gz = fc[3 * t + 2];
+        // The normal (the face's where the interpolated one vanishes).
+        float nx = lerp(kNx), ny = lerp(kNy), nz = lerp(kNz);
+        const float nl = std::sqrt(nx * nx + ny * ny + nz * nz);
+        const bool nok = nl > 1e-12f;
+        const float gl = std::sqrt(gx * gx + gy * gy + gz * gz);
+        const float ni = nok ? 1.0f / nl : (gl > 0.0f ? 1.0f / gl : 1.0f);
+        nx = (nok ? nx : gx) * ni;
+        ny = (nok ? ny : gy) * ni;
+        nz = (nok ? nz : gz) * ni;
+        // The frame: tangent along +u made normal to the normal (any unit vector normal to it
+        // where that vanishes); bitangent normal to both, on the side of +v (a mirrored UV
+        // layout gives a mirrored, still consistent, frame).
+        float tx = lerp(kTx), ty = lerp(kTy), tz = lerp(kTz);
+        const float tn = tx * nx + ty * ny + tz * nz;
+        tx -= nx * tn;
+        ty -= ny * tn;
+        tz -= nz * tn;
+        const float tl = std::sqrt(tx * tx + ty * ty + tz * tz);
+        const bool tok = tl > 1e-12f;
+        const bool ax = std::abs(nx) < 0.9f;
+        const float an = ax ? nx : ny;  // a . n, a = (1, 0, 0) or (0, 1, 0)
+        const float qx = (ax ? 1.0f : 0.0f) - nx * an, qy = (ax ? 0.0f : 1.0f) - ny * an,
+                    qz = -nz * an;
+        const float ql = std::sqrt(qx * qx + qy * qy + qz * qz);
+        const float ti = tok ? 1.0f / tl : 1.0f / ql;
+        tx = (tok ? tx : qx) * ti;
+        ty = (tok ? ty : qy) * ti;
+        tz = (tok ? tz : qz) * ti;
+        float bx = ny * tz - nz * ty, by = nz * tx - nx * tz, bz = nx * ty - ny * tx;
+        const float bs = bx * lerp(kBx) + by * lerp(kBy) + bz * lerp(kBz) < 0.0f ? -1.0f : 1.0f;
+        bx *= bs;
+        by *= bs;
+        bz *= bs;
+        // Seen from behind (an open surface such as the cloth), the back side shows the
+        // material too: the normal turns toward the viewer.
+        float vx = ex - px, vy = ey - py, vz = ez - pz;
+        const float vl = std::sqrt(vx * vx + vy * vy + vz * vz);
+        const float vi = vl > 0.0f ? 1.0f / vl : 1.0f;
+        vx *= vi;
+        vy *= vi;
+        vz *= vi;
+        const bool flip =
+            (gx * nx + gy * ny + gz * nz < 0.0f) != (gx * vx + gy * vy + gz * vz < 0.0f);
+        const float ns = flip ? -1.0f : 1.0f;
+        nx *= ns;
+        ny *= ns;
+        nz *= ns;
+        float lx = ldx, ly = ldy, lz = ldz, irradiance = intensity;
+        if (point_light) {
+          const float dx = lpx - px, dy = lpy - py, dz = lpz - pz;
+          const float d2 = dx * dx + dy * dy + dz * dz;
+          const float di = d2 > 0.0f ? 1.0f / std::sqrt(d2) : 0.0f;
+          lx = d2 > 0.0f ? dx * di : nx;
+          ly = d2 > 0.0f ? dy * di : ny;
+          lz = d2 > 0.0f ? dz * di : nz;
+          irradiance = d2 > 0.0f ? intensity / d2 : 0.0f;
+        }
+        const float fl0 = lx * tx + ly * ty + lz * tz, fl1 = lx * bx + ly * by + lz * bz,
+                    fl2 = lx * nx + ly * ny + lz * nz;
+        // In the dark: the light is below this point's horizon.
+        st[k] = !(fl2 > 0.0f) || !(irradiance > 0.0f) ? 1 : 2;
+        float fv0 = vx * tx + vy * ty + vz * tz, fv1 = vx * bx + vy * by + vz * bz,
+              fv2 = vx * nx + vy * ny + vz * nz;
+        // A shading normal may turn slightly away from the eye at a silhouette: the view is
+        // taken on the horizon there.
+        const float hl = std::sqrt(fv0 * fv0 + fv1 * fv1);
+        const bool below = fv2 < 0.0f, flat = !(hl > 0.0f);
+        const float hi = flat ? 0.0f : 1.0f / hl;
+        fv0 = below ? fv0 * hi : fv0;
+        fv1 = below ? fv1 * hi : fv1;
+        fv2 = below ? (flat ? 1.0f : 0.0f) : fv2;
+        // The texture coordinate in tile pixels, wrapped into the tile.
+        const float u = lerp(kU) * texel, w = lerp(kV) * texel;
+        float sx = u - tw * std::floor(u / tw), sy = w - th * std::floor(w / th);
+        sx = sx < 0.0f || sx >= tw ? 0.0f : sx;
+        sy = sy < 0.0f || sy >= th ? 0.0f : sy;
+        r_x[k] = sx;
+        r_y[k] = sy;
+        r_l0[k] = fl0;
+        r_l1[k] = fl1;
+        r_l2[k] = fl2;
+        r_v0[k] = fv0;
+        r_v1[k] = fv1;
+        r_v2[k] = fv2;
+        r_irr[k] = irradiance;
+      }
+      // The lit points, in block order.
+      std::vector<SurfacePoint>& bp = band_points[std::size_t(band)];
+      std::vector<std::uint32_t>& bpix = band_pixel[std::size_t(band)];
+      std::vector<std::uint32_t>& bc = band_count[std::size_t(band)];
+      bc.assign(std::size_t(bw), 0);
+      std::size_t lit = 0;
+      for (std::size_t k = 0; k < n; ++k) lit += st[k] == 2;
+      bp.resize(lit);
+      bpix.resize(lit);
+      std::size_t j = 0;
+      for (int bx = 0; bx < bw; ++bx)
+        for (std::size_t k = block_end[std::size_t(bx)]; k < block_end[std::size_t(bx) + 1]; ++k) {
+          out.coverage[pix[k]] = st[k];
+          if (st[k] != 2) continue;
+          SurfacePoint& sp = bp[j];
+          sp.x = r_x[k];
+          sp.y = r_y[k];
+          sp.light = {r_l0[k], r_l1[k], r_l2[k]};
+          sp.view = {r_v0[k], r_v1[k], r_v2[k]};
+          sp.irradiance = r_irr[k];
+          bpix[j++] = pix[k];
+          ++bc[std::size_t(bx)];
+        }
+    }
   }
-  std::vector<std::size_t> offset(nblocks + 1, 0);
-  for (std::size_t b = 0; b < nblocks; ++b) {
-    offset[b + 1] = offset[b] + count[b];
-    if (count[b]) out.block_start.push_back(std::uint32_t(offset[b]));
+  std::vector<std::size_t> offset(std::size_t(bands) + 1, 0);
+  for (std::size_t b = 0; b < std::size_t(bands); ++b) {
+    offset[b + 1] = offset[b] + band_points[b].size();
+    std::size_t start = offset[b];
+    for (const std::uint32_t c : band_count[b]) {
+      if (c) out.block_start.push_back(std::uint32_t(start));
+      start += c;
+    }
   }
-  out.block_start.push_back(std::uint32_t(offset[nblocks]));
-  out.points.resize(offset[nblocks]);
-  out.pixel.resize(offset[nblocks]);
+  out.block_start.push_back(std::uint32_t(offset[std::size_t(bands)]));
+  out.points.resize(offset[std::size_t(bands)]);
+  out.pixel.resize(offset[std::size_t(bands)]);
 #pragma omp parallel for schedule(static)
-  for (std::ptrdiff_t bi = 0; bi < std::ptrdiff_t(nblocks); ++bi) {
-    const std::size_t b = std::size_t(bi);
-    std::copy_n(&staged[b * slot], count[b], &out.points[offset[b]]);
-    std::copy_n(&staged_pixel[b * slot], count[b], &out.pixel[offset[b]]);
+  for (int b = 0; b < bands; ++b) {
+    std::copy(band_points[std::size_t(b)].begin(), band_points[std::size_t(b)].end(),
+              out.points.begin() + std::ptrdiff_t(offset[std::size_t(b)]));
+    std::copy(band_pixel[std::size_t(b)].begin(), band_pixel[std::size_t(b)].end(),
+              out.pixel.begin() + std::ptrdiff_t(offset[std::size_t(b)]));
   }
   out.seconds = since(t0);
   return out;
