@@ -6,17 +6,20 @@
 // x_I = (x, y, alpha_i, beta_i, alpha_v, beta_v) in model units, Eq. (9) gives the log weight
 //   t_m = log w_m - 1/2 sum_k log sigma_mk^2 - sum_k (x_k - mu_mk)^2 / (2 sigma_mk^2),
 // and the colour is sum_m W_m mu_m,rgb (times the colour unit) plus the mean BRDF (Eq. 11).
-// Points come in blocks of up to 64 (an 8 x 8 screen block); per block:
+// Points come in blocks of up to 256 (a 16 x 16 screen block); per block:
 //  1. the box of the block's inputs (x and y as up to two intervals, the tile wraps);
-//  2. per component an upper bound U_m and a lower bound L_m of t_m over the box;
-//     Lmax = max_m L_m is at most every point's largest log weight t*, so a skipped component
-//     has a normalised weight below exp(U_m - Lmax). Components with U_m < Lmax - T are
-//     skipped, T = ln(M R / tolerance), R the spread of the components' colour means in
-//     levels: the skipped ones change a point's colour by at most M exp(-T) R = tolerance.
-//  3. the kept components are gathered into contiguous float arrays, and each point sums
-//     exp(t_m - r) over them in one vectorised loop (r = max_m U_m, an upper bound of every
-//     t_m in the block, so no per-point maximum pass is needed while r - Lmax is small; a
-//     block where it is not takes the per-point maximum first).
+//  2. per component an upper bound U_m and a lower bound L_m of t_m over the box; Lmax, at
+//     most every point's largest log weight t*, so a skipped component has a normalised
+//     weight below exp(U_m - Lmax); components are skipped while the skipped set's
+//     sum of exp(U_m - Lmax) times R, the spread of the components' colour means in levels,
+//     stays within the tolerance (select_components);
+//  3. each point sums exp(t_m - r) and exp(t_m - r) mu_m over the kept components
+//     (r = max_m U_m, an upper bound of every t_m in the block, so no per-point maximum pass
+//     is needed while r - Lmax is small; a block where it is not takes the per-point maximum
+//     first), vectorised over 16 points at a time: a component's parameters (one 64-byte
+//     record) are broadcast, nothing is gathered, no horizontal sums;
+//  4. the mean BRDF, interpolated over the measured directions, from the block's first
+//     point's light and view triangles for every point well inside both, vectorised.
 // Work is in log2 units with a polynomial exp2 (Cephes' exp2f polynomial, relative error
 // ~2e-7).
 #include <fmt/format.h>
