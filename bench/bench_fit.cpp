@@ -4,13 +4,19 @@
 // ns per sample-component-iteration, mean log-likelihood, peak memory, and the ratio.
 //
 //   bench_fit [--size S] [--tile T] [--components M] [--iterations K] [--threads N]
-//             [--no-peer]
+//             [--no-peer] [--save FILE]
+//   bench_fit --decode FILE [--threads N] [--tolerance L]
+//
+// --save writes the fitted model; --decode times only the decoding of a saved model's whole
+// tile (every light and view of it), with decode()'s tolerance L (levels) and with 0.
 //
 // Samples: a generated corduroy BTF (S x S pixels, 81 x 81 directions), its T x T tile;
 // T = 12 gives 944,784 samples.
 #include <sys/resource.h>
 #include <sys/wait.h>
 #include <unistd.h>
+
+#include <omp.h>
 
 #include <armadillo>
 #include <chrono>
@@ -29,6 +35,8 @@ struct Options {
   int size = 32, tile = 12, iterations = 5, threads = 0;
   std::size_t components = 600;
   bool peer = true;
+  std::string save, decode;
+  double tolerance = btfgmm::kDecodeTolerance;
 };
 
 struct Result {
@@ -90,7 +98,33 @@ Result run_ours(const Options& o) {
   out.decode_seconds = now() - t1;
   out.decode_cpu_seconds = cpu_now() - c1;
   if (decoded.data().empty()) out.ok = false;
+  if (!o.save.empty()) btfgmm::save_model(model, o.save);
   return out;
+}
+
+// Decoding a saved model's whole tile, with the tolerance and with every component.
+int run_decode(const Options& o) {
+  const btfgmm::BtfModel model = btfgmm::load_model(o.decode);
+  if (o.threads > 0) omp_set_num_threads(o.threads);
+  const double n =
+      double(model.width) * model.height * double(model.lights.size()) * double(model.views.size());
+  std::printf("decode %s: %d x %d tile, %zu x %zu directions, %.0f predictions, M = %zu\n\n",
+              o.decode.c_str(), model.width, model.height, model.lights.size(), model.views.size(),
+              n, model.mixture.size());
+  std::printf(
+      "| tolerance (levels) | seconds | CPU seconds | ns per prediction x component |\n"
+      "|---|---|---|---|\n");
+  for (const double tol : {o.tolerance, 0.0}) {
+    const double t0 = now(), c0 = cpu_now();
+    const btfgmm::Btf d =
+        btfgmm::decode(model, model.lights, model.views, model.width, model.height, tol);
+    const double s = now() - t0, c = cpu_now() - c0;
+    std::printf("| %g | %.2f | %.2f | %.3f |\n", tol, s, c,
+                s / (n * double(model.mixture.size())) * 1e9);
+    std::fflush(stdout);
+    if (d.data().empty()) return 1;
+  }
+  return 0;
 }
 
 Result run_armadillo(const Options& o) {
@@ -168,13 +202,21 @@ int main(int argc, char** argv) {
       o.threads = int(next());
     else if (a == "--no-peer")
       o.peer = false;
+    else if (a == "--save" && i + 1 < argc)
+      o.save = argv[++i];
+    else if (a == "--decode" && i + 1 < argc)
+      o.decode = argv[++i];
+    else if (a == "--tolerance" && i + 1 < argc)
+      o.tolerance = std::atof(argv[++i]);
     else {
       std::fprintf(stderr,
                    "usage: bench_fit [--size S] [--tile T] [--components M] [--iterations K] "
-                   "[--threads N] [--no-peer]\n");
+                   "[--threads N] [--no-peer] [--save FILE]\n       bench_fit --decode FILE "
+                   "[--threads N] [--tolerance L]\n");
       return 2;
     }
   }
+  if (!o.decode.empty()) return run_decode(o);
   if (o.tile > o.size) o.size = o.tile;
   const double n = double(o.tile) * o.tile * 81 * 81;
   const double pairs = n * double(o.components) * o.iterations;

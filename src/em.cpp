@@ -14,6 +14,7 @@
 #include <omp.h>
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <cstdint>
@@ -44,6 +45,12 @@ struct Tables {
   float skip_margin = 0;                    // Delta of the chunk skip (group_pass)
   std::vector<float> s, l, v;               // P x stride, ni x stride, nv x stride
   std::vector<float> mu, neg_half_inv_var;  // 3 x stride each (colour)
+  // For the AVX-512 pass's chunk bound (em_avx512.hpp, ChunkBound), per chunk of kLanes
+  // components, padded to whole vectors of chunks: the largest V of each view, the box of the
+  // colour means and the largest -1/(2 sigma^2) of each colour.
+  std::size_t padded_chunks = 0;
+  std::vector<float> v_max;                         // nv x padded_chunks
+  std::array<std::vector<float>, 3> lo, hi, h_max;  // padded_chunks each
 };
 
 // Components in the order of a Morton key of their colour means (r, g, b): a sample's
@@ -118,6 +125,29 @@ Tables make_tables(const SampleSet& s, const ProductMixture& mix) {
   for (std::size_t v = 0; v < s.views; ++v)
     for (std::size_t k = 0; k < m_count; ++k)
       t.v[v * st + k] = float(gauss(k, 4, s.view_ab[v][0]) + gauss(k, 5, s.view_ab[v][1]));
+  const std::size_t chunks = st / kLanes;
+  const std::size_t pc = t.padded_chunks = (chunks + kLanes - 1) / kLanes * kLanes;
+  t.v_max.assign(s.views * pc, 0.0f);
+  for (std::size_t v = 0; v < s.views; ++v)
+    for (std::size_t j = 0; j < chunks; ++j)
+      t.v_max[v * pc + j] =
+          *std::max_element(&t.v[v * st + j * kLanes], &t.v[v * st + (j + 1) * kLanes]);
+  for (int c = 0; c < 3; ++c) {
+    t.lo[c].assign(pc, 0.0f);
+    t.hi[c].assign(pc, 0.0f);
+    t.h_max[c].assign(pc, 0.0f);
+    for (std::size_t j = 0; j < chunks; ++j) {
+      float lo = INFINITY, hi = -INFINITY, hm = -INFINITY;
+      for (std::size_t k = j * kLanes; k < std::min(m_count, (j + 1) * kLanes); ++k) {
+        lo = std::min(lo, t.mu[std::size_t(c) * st + k]);
+        hi = std::max(hi, t.mu[std::size_t(c) * st + k]);
+        hm = std::max(hm, t.neg_half_inv_var[std::size_t(c) * st + k]);
+      }
+      t.lo[c][j] = lo;
+      t.hi[c][j] = hi;
+      t.h_max[c][j] = hm;
+    }
+  }
   return t;
 }
 
@@ -129,6 +159,9 @@ struct ChunkStats {
 struct Workspace {
   std::vector<float> sl, t, a0, a1, a2, qv, cmax;
   std::vector<std::uint8_t> live;
+  std::vector<std::uint32_t> live_list;  // the AVX-512 pass's live vectors
+  std::vector<float> sl_max, ub;         // its chunk bound: per block, per group
+  std::vector<std::uint32_t> candidates;
   std::vector<std::uint32_t> view_list;  // the block's views in processing order
   explicit Workspace(std::size_t stride, std::size_t views, int group)
       : sl(stride),
@@ -139,6 +172,10 @@ struct Workspace {
         qv(views * stride),
         cmax(std::size_t(group) * (stride / kLanes)),
         live(stride / kLanes),
+        live_list(stride / kLanes),
+        sl_max((stride / kLanes + kLanes - 1) / kLanes * kLanes, -INFINITY),
+        ub(sl_max.size()),
+        candidates(stride / kLanes),
         view_list(views) {}
 };
 
@@ -342,6 +379,18 @@ double e_pass(const SampleSet& s, const Tables& t, const std::vector<std::uint8_
               for (std::size_t v = 0; v < nv; ++v) views[v] = order[s.index(p, l, v)];
             std::size_t v = 0;
 #if defined(__AVX512F__)
+            detail::ChunkBound cb;
+            cb.padded_chunks = t.padded_chunks;
+            for (std::size_t j = 0; j < st / kLanes; ++j)
+              w.sl_max[j] = *std::max_element(&w.sl[j * kLanes], &w.sl[(j + 1) * kLanes]);
+            cb.sl_max = w.sl_max.data();
+            for (std::size_t k = 0; k < 3; ++k) {
+              cb.lo[k] = t.lo[k].data();
+              cb.hi[k] = t.hi[k].data();
+              cb.h_max[k] = t.h_max[k].data();
+            }
+            cb.ub = w.ub.data();
+            cb.candidates = w.candidates.data();
             for (; v + 4 <= nv; v += 4) {
               const float* vrow[4];
               float r[4][3];
@@ -352,10 +401,12 @@ double e_pass(const SampleSet& s, const Tables& t, const std::vector<std::uint8_
                 const float* rr = &s.residual[s.index(p, l, view) * 3];
                 for (int k = 0; k < 3; ++k) r[g][k] = rr[k];
                 qv[g] = &w.qv[view * st];
+                cb.v_max[g] = &t.v_max[view * t.padded_chunks];
               }
-              ll += detail::group_pass4_avx512(
-                  st, w.sl.data(), t.mu.data(), t.neg_half_inv_var.data(), vrow, r, w.t.data(),
-                  w.live.data(), t.skip_margin, want, w.a0.data(), w.a1.data(), w.a2.data(), qv);
+              ll += detail::group_pass4_avx512(st, w.sl.data(), t.mu.data(),
+                                               t.neg_half_inv_var.data(), vrow, r, w.t.data(),
+                                               w.live_list.data(), t.skip_margin, want, w.a0.data(),
+                                               w.a1.data(), w.a2.data(), qv, cb);
             }
 #endif
             for (; v + kGroup <= nv; v += kGroup)

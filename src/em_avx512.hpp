@@ -9,6 +9,7 @@
 #pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
 #include <immintrin.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
@@ -52,23 +53,43 @@ inline float hsum16(__m512 v) {
 }
 
 // Four samples (views v0..v0+3 of one pixel and light). sl: the pixel + light table row;
-// vrow[g]: the view table rows; r[g]: residual colours; tt: 4 x st scratch; margin: the skip
-// margin; accumulators a0 (st), a1, a2 (3 st), qv[g] (st each). Returns the sum of the four
-// samples' log-likelihoods. live: chunks bytes of scratch.
+// vrow_in[g]: the view table rows; r[g]: residual colours; tt: 4 x st scratch; margin: the skip
+// margin; accumulators a0 (st), a1, a2 (3 st), qv_in[g] (st each). Returns the sum of the four
+// samples' log-likelihoods. live: scratch for the indices of the live vectors (st / 16).
+// Per vector of 16 components (a chunk), what bounds its log densities over a group of
+// samples without computing them: t_k = sl_k + V_k + sum_c h_kc (r_c - mu_kc)^2 with h < 0, so
+// t_k <= max(sl) + max(V) + sum_c max(h_c) gap_c^2, gap_c the distance of the colour r_c to the
+// chunk's interval [lo_c, hi_c] of means. Arrays of padded_chunks (a multiple of 16) floats;
+// padding chunks have sl_max = -inf.
+struct ChunkBound {
+  std::size_t padded_chunks = 0;
+  const float* sl_max = nullptr;  // the block's
+  const float* v_max[4] = {};     // the four views'
+  const float* lo[3] = {};
+  const float* hi[3] = {};
+  const float* h_max[3] = {};
+  float* ub = nullptr;                  // scratch, padded_chunks
+  std::uint32_t* candidates = nullptr;  // scratch, st / 16
+};
+
 inline double group_pass4_avx512(std::size_t st, const float* sl, const float* mu, const float* h,
-                                 const float* const vrow[4], const float r[4][3], float* tt,
-                                 std::uint8_t* live, float margin, bool stats, float* a0, float* a1,
-                                 float* a2, float* const qv[4]) {
+                                 const float* const vrow_in[4], const float r[4][3], float* tt,
+                                 std::uint32_t* live, float margin, bool stats, float* a0,
+                                 float* a1, float* a2, float* const qv_in[4],
+                                 const ChunkBound& cb) {
   const std::size_t chunks = st / 16;
+  // Local copies: the stores below could alias the arrays, so the compiler would reload the
+  // row pointers from them on every vector.
+  const float* const vrow[4] = {vrow_in[0], vrow_in[1], vrow_in[2], vrow_in[3]};
+  float* const qv[4] = {qv_in[0], qv_in[1], qv_in[2], qv_in[3]};
   __m512 rv[4][3];
   __m512 mxv[4];
   for (int g = 0; g < 4; ++g) {
     for (int c = 0; c < 3; ++c) rv[g][c] = _mm512_set1_ps(r[g][c]);
     mxv[g] = _mm512_set1_ps(-INFINITY);
   }
-  // log w_m F(x | m), and each sample's maximum.
-  for (std::size_t j = 0; j < chunks; ++j) {
-    const std::size_t o = j * 16;
+  // log w_m F(x | m) of the chunk at o for the four samples, into tt and out.
+  auto densities = [&](std::size_t o, __m512 out[4]) {
     const __m512 base = _mm512_loadu_ps(sl + o);
     const __m512 m0 = _mm512_loadu_ps(mu + o), m1 = _mm512_loadu_ps(mu + st + o),
                  m2 = _mm512_loadu_ps(mu + 2 * st + o);
@@ -82,8 +103,59 @@ inline double group_pass4_avx512(std::size_t st, const float* sl, const float* m
       x = _mm512_fmadd_ps(_mm512_mul_ps(k1, d1), d1, x);
       x = _mm512_fmadd_ps(_mm512_mul_ps(k2, d2), d2, x);
       _mm512_storeu_ps(tt + std::size_t(g) * st + o, x);
-      mxv[g] = _mm512_max_ps(mxv[g], x);
+      out[g] = x;
     }
+  };
+  // Bound pass: an upper bound ub_j of every log density in chunk j over the four samples
+  // (ChunkBound), vectorised over 16 chunks at a time.
+  float rlo[3], rhi[3];
+  for (int c = 0; c < 3; ++c) {
+    rlo[c] = std::min(std::min(r[0][c], r[1][c]), std::min(r[2][c], r[3][c]));
+    rhi[c] = std::max(std::max(r[0][c], r[1][c]), std::max(r[2][c], r[3][c]));
+  }
+  __m512 best = _mm512_set1_ps(-INFINITY);
+  for (std::size_t j = 0; j < cb.padded_chunks; j += 16) {
+    __m512 u = _mm512_max_ps(
+        _mm512_max_ps(_mm512_loadu_ps(cb.v_max[0] + j), _mm512_loadu_ps(cb.v_max[1] + j)),
+        _mm512_max_ps(_mm512_loadu_ps(cb.v_max[2] + j), _mm512_loadu_ps(cb.v_max[3] + j)));
+    u = _mm512_add_ps(u, _mm512_loadu_ps(cb.sl_max + j));
+    for (int c = 0; c < 3; ++c) {
+      const __m512 gap = _mm512_max_ps(
+          _mm512_max_ps(_mm512_sub_ps(_mm512_loadu_ps(cb.lo[c] + j), _mm512_set1_ps(rhi[c])),
+                        _mm512_sub_ps(_mm512_set1_ps(rlo[c]), _mm512_loadu_ps(cb.hi[c] + j))),
+          _mm512_setzero_ps());
+      u = _mm512_fmadd_ps(_mm512_mul_ps(_mm512_loadu_ps(cb.h_max[c] + j), gap), gap, u);
+    }
+    _mm512_storeu_ps(cb.ub + j, u);
+    best = _mm512_max_ps(best, u);
+  }
+  // A lower bound of each sample's maximum: the densities of the chunk with the largest bound.
+  const float top = hmax16(best);
+  std::size_t first = 0;
+  while (first + 1 < chunks && cb.ub[first] != top) ++first;
+  __m512 probe[4];
+  densities(first * 16, probe);
+  float low = INFINITY;
+  for (int g = 0; g < 4; ++g) {
+    mxv[g] = probe[g];
+    low = std::min(low, hmax16(probe[g]));
+  }
+  // A chunk whose bound is below every sample's lower bound by more than the margin holds
+  // only densities below each sample's maximum by more than the margin: the exact skip below
+  // would drop it, so its densities are not computed at all. The slack covers float rounding
+  // of the bound and of the densities.
+  const float cut = low - margin - (1e-3f + 1e-5f * (std::abs(low) + std::abs(top)));
+  std::size_t n_cand = 0;
+  for (std::size_t j = 0; j < chunks; ++j) {
+    cb.candidates[n_cand] = std::uint32_t(j);
+    n_cand += cb.ub[j] >= cut || j == first;
+  }
+  // log w_m F(x | m) of the other candidates, and each sample's maximum.
+  for (std::size_t i = 0; i < n_cand; ++i) {
+    if (cb.candidates[i] == first) continue;
+    __m512 x[4];
+    densities(std::size_t(cb.candidates[i]) * 16, x);
+    for (int g = 0; g < 4; ++g) mxv[g] = _mm512_max_ps(mxv[g], x[g]);
   }
   float mx[4];
   __m512 mxb[4], thr[4], sum[4];
@@ -93,21 +165,26 @@ inline double group_pass4_avx512(std::size_t st, const float* sl, const float* m
     thr[g] = _mm512_set1_ps(mx[g] - margin);
     sum[g] = _mm512_setzero_ps();
   }
-  // exp(t - max) where any of the four samples has a responsibility above e^-margin; the
-  // other vectors are skipped here and below (their tt is left as it was).
-  for (std::size_t j = 0; j < chunks; ++j) {
-    const std::size_t o = j * 16;
-    __m512 x[4];
+  // The vectors where any of the four samples has a responsibility above e^-margin, as a
+  // list (no data-dependent branch per vector below); the others are skipped here and below
+  // (their tt is left as it was).
+  std::size_t n_live = 0;
+  for (std::size_t i = 0; i < n_cand; ++i) {
+    const std::uint32_t j = cb.candidates[i];
+    const std::size_t o = std::size_t(j) * 16;
     __mmask16 any = 0;
+    for (int g = 0; g < 4; ++g)
+      any |= _mm512_cmp_ps_mask(_mm512_loadu_ps(tt + std::size_t(g) * st + o), thr[g], _CMP_GE_OQ);
+    live[n_live] = j;
+    n_live += any != 0;
+  }
+  // exp(t - max) on the live vectors.
+  for (std::size_t i = 0; i < n_live; ++i) {
+    const std::size_t o = std::size_t(live[i]) * 16;
     for (int g = 0; g < 4; ++g) {
-      x[g] = _mm512_loadu_ps(tt + std::size_t(g) * st + o);
-      any |= _mm512_cmp_ps_mask(x[g], thr[g], _CMP_GE_OQ);
-    }
-    live[j] = any != 0;
-    if (!any) continue;
-    for (int g = 0; g < 4; ++g) {
-      const __m512 e = fast_exp16(_mm512_sub_ps(x[g], mxb[g]));
-      _mm512_storeu_ps(tt + std::size_t(g) * st + o, e);
+      float* p = tt + std::size_t(g) * st + o;
+      const __m512 e = fast_exp16(_mm512_sub_ps(_mm512_loadu_ps(p), mxb[g]));
+      _mm512_storeu_ps(p, e);
       sum[g] = _mm512_add_ps(sum[g], e);
     }
   }
@@ -119,9 +196,8 @@ inline double group_pass4_avx512(std::size_t st, const float* sl, const float* m
     inv[g] = _mm512_set1_ps(1.0f / s);
   }
   if (!stats) return ll;
-  for (std::size_t j = 0; j < chunks; ++j) {
-    if (!live[j]) continue;
-    const std::size_t o = j * 16;
+  for (std::size_t i = 0; i < n_live; ++i) {
+    const std::size_t o = std::size_t(live[i]) * 16;
     const __m512 m0 = _mm512_loadu_ps(mu + o), m1 = _mm512_loadu_ps(mu + st + o),
                  m2 = _mm512_loadu_ps(mu + 2 * st + o);
     __m512 s0 = _mm512_setzero_ps(), s1a = s0, s1b = s0, s1c = s0, s2a = s0, s2b = s0, s2c = s0;
