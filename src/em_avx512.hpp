@@ -106,49 +106,68 @@ inline double group_pass4_avx512(std::size_t st, const float* sl, const float* m
       out[g] = x;
     }
   };
-  // Bound pass: an upper bound ub_j of every log density in chunk j over the four samples
-  // (ChunkBound), vectorised over 16 chunks at a time.
-  float rlo[3], rhi[3];
-  for (int c = 0; c < 3; ++c) {
-    rlo[c] = std::min(std::min(r[0][c], r[1][c]), std::min(r[2][c], r[3][c]));
-    rhi[c] = std::max(std::max(r[0][c], r[1][c]), std::max(r[2][c], r[3][c]));
-  }
+  // Bound pass: per sample g an upper bound ub_g[j] of its log densities in chunk j
+  // (ChunkBound), vectorised over 16 chunks at a time; ub_4[j] = max_g ub_g[j].
+  const std::size_t pc = cb.padded_chunks;
   __m512 best = _mm512_set1_ps(-INFINITY);
-  for (std::size_t j = 0; j < cb.padded_chunks; j += 16) {
-    __m512 u = _mm512_max_ps(
-        _mm512_max_ps(_mm512_loadu_ps(cb.v_max[0] + j), _mm512_loadu_ps(cb.v_max[1] + j)),
-        _mm512_max_ps(_mm512_loadu_ps(cb.v_max[2] + j), _mm512_loadu_ps(cb.v_max[3] + j)));
-    u = _mm512_add_ps(u, _mm512_loadu_ps(cb.sl_max + j));
-    for (int c = 0; c < 3; ++c) {
-      const __m512 gap = _mm512_max_ps(
-          _mm512_max_ps(_mm512_sub_ps(_mm512_loadu_ps(cb.lo[c] + j), _mm512_set1_ps(rhi[c])),
-                        _mm512_sub_ps(_mm512_set1_ps(rlo[c]), _mm512_loadu_ps(cb.hi[c] + j))),
-          _mm512_setzero_ps());
-      u = _mm512_fmadd_ps(_mm512_mul_ps(_mm512_loadu_ps(cb.h_max[c] + j), gap), gap, u);
+  for (std::size_t j = 0; j < pc; j += 16) {
+    const __m512 slm = _mm512_loadu_ps(cb.sl_max + j);
+    __m512 gap2[4][3];
+    {
+      const __m512 lo0 = _mm512_loadu_ps(cb.lo[0] + j), lo1 = _mm512_loadu_ps(cb.lo[1] + j),
+                   lo2 = _mm512_loadu_ps(cb.lo[2] + j), hi0 = _mm512_loadu_ps(cb.hi[0] + j),
+                   hi1 = _mm512_loadu_ps(cb.hi[1] + j), hi2 = _mm512_loadu_ps(cb.hi[2] + j);
+      const __m512 lo[3] = {lo0, lo1, lo2}, hi[3] = {hi0, hi1, hi2};
+      for (int g = 0; g < 4; ++g)
+        for (int c = 0; c < 3; ++c) {
+          const __m512 gap = _mm512_max_ps(
+              _mm512_max_ps(_mm512_sub_ps(lo[c], rv[g][c]), _mm512_sub_ps(rv[g][c], hi[c])),
+              _mm512_setzero_ps());
+          gap2[g][c] = _mm512_mul_ps(gap, gap);
+        }
     }
-    _mm512_storeu_ps(cb.ub + j, u);
-    best = _mm512_max_ps(best, u);
+    const __m512 hm0 = _mm512_loadu_ps(cb.h_max[0] + j), hm1 = _mm512_loadu_ps(cb.h_max[1] + j),
+                 hm2 = _mm512_loadu_ps(cb.h_max[2] + j);
+    __m512 all = _mm512_set1_ps(-INFINITY);
+    for (int g = 0; g < 4; ++g) {
+      __m512 u = _mm512_add_ps(slm, _mm512_loadu_ps(cb.v_max[g] + j));
+      u = _mm512_fmadd_ps(hm0, gap2[g][0], u);
+      u = _mm512_fmadd_ps(hm1, gap2[g][1], u);
+      u = _mm512_fmadd_ps(hm2, gap2[g][2], u);
+      _mm512_storeu_ps(cb.ub + std::size_t(g) * pc + j, u);
+      all = _mm512_max_ps(all, u);
+    }
+    _mm512_storeu_ps(cb.ub + 4 * pc + j, all);
+    best = _mm512_max_ps(best, all);
   }
   // A lower bound of each sample's maximum: the densities of the chunk with the largest bound.
   const float top = hmax16(best);
   std::size_t first = 0;
-  while (first + 1 < chunks && cb.ub[first] != top) ++first;
+  while (first + 1 < chunks && cb.ub[4 * pc + first] != top) ++first;
   __m512 probe[4];
   densities(first * 16, probe);
-  float low = INFINITY;
-  for (int g = 0; g < 4; ++g) {
-    mxv[g] = probe[g];
-    low = std::min(low, hmax16(probe[g]));
-  }
-  // A chunk whose bound is below every sample's lower bound by more than the margin holds
+  // A chunk whose bounds are below each sample's lower bound by more than the margin holds
   // only densities below each sample's maximum by more than the margin: the exact skip below
   // would drop it, so its densities are not computed at all. The slack covers float rounding
   // of the bound and of the densities.
-  const float cut = low - margin - (1e-3f + 1e-5f * (std::abs(low) + std::abs(top)));
+  __m512 cut[4];
+  for (int g = 0; g < 4; ++g) {
+    mxv[g] = probe[g];
+    const float low = hmax16(probe[g]);
+    cut[g] = _mm512_set1_ps(low - margin - (1e-3f + 1e-5f * (std::abs(low) + std::abs(top))));
+  }
   std::size_t n_cand = 0;
-  for (std::size_t j = 0; j < chunks; ++j) {
-    cb.candidates[n_cand] = std::uint32_t(j);
-    n_cand += cb.ub[j] >= cut || j == first;
+  const __m512i lane = _mm512_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
+  for (std::size_t j = 0; j < pc; j += 16) {
+    __mmask16 any = 0;
+    for (int g = 0; g < 4; ++g)
+      any |=
+          _mm512_cmp_ps_mask(_mm512_loadu_ps(cb.ub + std::size_t(g) * pc + j), cut[g], _CMP_GE_OQ);
+    if (first >= j && first < j + 16) any |= __mmask16(1u << (first - j));
+    if (j + 16 > chunks) any &= __mmask16((1u << (chunks - j)) - 1u);
+    const __m512i idx = _mm512_add_epi32(_mm512_set1_epi32(int(j)), lane);
+    _mm512_mask_compressstoreu_epi32(cb.candidates + n_cand, any, idx);
+    n_cand += std::size_t(__builtin_popcount(unsigned(any)));
   }
   // log w_m F(x | m) of the other candidates, and each sample's maximum.
   for (std::size_t i = 0; i < n_cand; ++i) {
