@@ -52,6 +52,7 @@ btfgmm::SampleSet samples(const Options& o) {
   g.size = o.size;
   g.seed = 1;
   const btfgmm::Btf full = btfgmm::generate(g);
+  if (o.tile == o.size) return btfgmm::make_sample_set(full);  // no copy of the whole BTF
   btfgmm::Btf tile(full.lights(), full.views(), o.tile, o.tile, full.format());
   for (std::size_t l = 0; l < full.lights().size(); ++l)
     for (std::size_t v = 0; v < full.views().size(); ++v)
