@@ -24,6 +24,7 @@
 #include "btfgmm/error.hpp"
 #include "btfgmm/model.hpp"
 #include "fast_exp.hpp"
+#include "flush_denormals.hpp"
 #if defined(__AVX512F__)
 #include "em_avx512.hpp"
 #endif
@@ -53,42 +54,13 @@ struct Tables {
   std::array<std::vector<float>, 3> lo, hi, h_max;  // padded_chunks each
 };
 
-// Components grouped into vectors of kLanes whose colour means (r, g, b) lie close together:
-// the set is split recursively at a multiple of kLanes along the widest side of its box of
-// colour means (a k-d tree whose leaves are the vectors). A sample's responsibilities
-// concentrate on the components whose colour is near its own, so they share few vectors, and
-// the vectors' colour boxes are small, which tightens the chunk bound of the AVX-512 pass.
-// The order changes nothing but float summation order; it is a function of the parameters
-// alone (ties broken by index).
-void split_by_colour(const ProductMixture& mix, std::size_t* first, std::size_t* last) {
-  const std::size_t n = std::size_t(last - first);
-  if (n <= kLanes) return;
-  std::array<double, 3> lo{1e300, 1e300, 1e300}, hi{-1e300, -1e300, -1e300};
-  for (const std::size_t* m = first; m != last; ++m)
-    for (int c = 0; c < 3; ++c) {
-      lo[c] = std::min(lo[c], mix.mean[*m][6 + c]);
-      hi[c] = std::max(hi[c], mix.mean[*m][6 + c]);
-    }
-  int axis = 0;
-  for (int c = 1; c < 3; ++c)
-    if (hi[c] - lo[c] > hi[axis] - lo[axis]) axis = c;
-  // The first half: half the vectors, rounded up.
-  const std::size_t vectors = (n + kLanes - 1) / kLanes;
-  std::size_t* mid = first + (vectors + 1) / 2 * kLanes;
-  if (mid >= last) return;
-  std::nth_element(first, mid, last, [&](std::size_t a, std::size_t b) {
-    const double x = mix.mean[a][6 + axis], y = mix.mean[b][6 + axis];
-    return x < y || (x == y && a < b);
-  });
-  split_by_colour(mix, first, mid);
-  split_by_colour(mix, mid, last);
-}
-
+// Components grouped into vectors of kLanes whose colour means (r, g, b) lie close together
+// (a k-d split, mixture_internal.hpp): a sample's responsibilities concentrate on the
+// components whose colour is near its own, so they share few vectors, and the vectors' colour
+// boxes are small, which tightens the chunk bound of the AVX-512 pass. The order changes
+// nothing but float summation order; it is a function of the parameters alone.
 std::vector<std::size_t> block_order(const ProductMixture& mix) {
-  std::vector<std::size_t> order(mix.size());
-  for (std::size_t m = 0; m < order.size(); ++m) order[m] = m;
-  split_by_colour(mix, order.data(), order.data() + order.size());
-  return order;
+  return detail::kd_order(mix, {6, 7, 8}, kLanes);
 }
 
 Tables make_tables(const SampleSet& s, const ProductMixture& mix) {
@@ -360,6 +332,7 @@ double e_pass(const SampleSet& s, const Tables& t, const std::vector<std::uint8_
   const bool want = stats != nullptr;
 #pragma omp parallel num_threads(threads)
   {
+    const detail::FlushDenormals flush;
     Workspace w(st, nv, kGroup);
 #pragma omp for schedule(dynamic, 1)
     for (std::size_t c = 0; c < kChunks; ++c) {

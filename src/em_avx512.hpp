@@ -36,26 +36,27 @@ inline __m512 fast_exp16(__m512 x) {
   return _mm512_maskz_mov_ps(static_cast<__mmask16>(~under), _mm512_scalef_ps(p, n));
 }
 
-// Horizontal max and sum through memory (GCC 12's _mm512_reduce_* trip -Wuninitialized).
+// Horizontal max and sum by halving (GCC 12's _mm512_reduce_* trip -Wuninitialized).
+inline __m128 fold_to_128(__m512 v, bool max) {
+  const __m256 lo = _mm512_castps512_ps256(v);
+  const __m256 hi = _mm256_castpd_ps(_mm512_extractf64x4_pd(_mm512_castps_pd(v), 1));
+  const __m256 a = max ? _mm256_max_ps(lo, hi) : _mm256_add_ps(lo, hi);
+  const __m128 l = _mm256_castps256_ps128(a), h = _mm256_extractf128_ps(a, 1);
+  return max ? _mm_max_ps(l, h) : _mm_add_ps(l, h);
+}
 inline float hmax16(__m512 v) {
-  alignas(64) float b[16];
-  _mm512_store_ps(b, v);
-  float m = b[0];
-  for (int i = 1; i < 16; ++i) m = b[i] > m ? b[i] : m;
-  return m;
+  __m128 b = fold_to_128(v, true);
+  b = _mm_max_ps(b, _mm_movehl_ps(b, b));
+  b = _mm_max_ss(b, _mm_movehdup_ps(b));
+  return _mm_cvtss_f32(b);
 }
 inline float hsum16(__m512 v) {
-  alignas(64) float b[16];
-  _mm512_store_ps(b, v);
-  float s = 0.0f;
-  for (int i = 0; i < 16; ++i) s += b[i];
-  return s;
+  __m128 b = fold_to_128(v, false);
+  b = _mm_add_ps(b, _mm_movehl_ps(b, b));
+  b = _mm_add_ss(b, _mm_movehdup_ps(b));
+  return _mm_cvtss_f32(b);
 }
 
-// Four samples (views v0..v0+3 of one pixel and light). sl: the pixel + light table row;
-// vrow_in[g]: the view table rows; r[g]: residual colours; tt: 4 x st scratch; margin: the skip
-// margin; accumulators a0 (st), a1, a2 (3 st), qv_in[g] (st each). Returns the sum of the four
-// samples' log-likelihoods. live: scratch for the indices of the live vectors (st / 16).
 // Per vector of 16 components (a chunk), what bounds its log densities over a group of
 // samples without computing them: t_k = sl_k + V_k + sum_c h_kc (r_c - mu_kc)^2 with h < 0, so
 // t_k <= max(sl) + max(V) + sum_c max(h_c) gap_c^2, gap_c the distance of the colour r_c to the

@@ -1,5 +1,6 @@
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <cmath>
 
 #include "btfgmm/error.hpp"
@@ -80,6 +81,49 @@ void record_iteration(EmResult& result, double ll, int iteration, const EmConfig
   p.dropped = result.dropped;
   p.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   if (progress) progress(p);
+}
+
+namespace {
+
+void kd_split(const ProductMixture& mix, const std::vector<int>& dims, std::size_t leaf,
+              std::size_t* first, std::size_t* last) {
+  const std::size_t n = std::size_t(last - first);
+  if (n <= leaf) return;
+  int axis = dims.front();
+  double widest = -1.0;
+  for (const int d : dims) {
+    double lo = INFINITY, hi = -INFINITY;
+    for (const std::size_t* m = first; m != last; ++m) {
+      lo = std::min(lo, mix.mean[*m][std::size_t(d)]);
+      hi = std::max(hi, mix.mean[*m][std::size_t(d)]);
+    }
+    if (hi - lo > widest) {
+      widest = hi - lo;
+      axis = d;
+    }
+  }
+  // The first half: half the leaves, rounded up.
+  const std::size_t leaves = (n + leaf - 1) / leaf;
+  std::size_t* mid = first + (leaves + 1) / 2 * leaf;
+  if (mid >= last) return;
+  const auto a = std::size_t(axis);
+  std::nth_element(first, mid, last, [&](std::size_t p, std::size_t q) {
+    const double x = mix.mean[p][a], y = mix.mean[q][a];
+    return x < y || (x == y && p < q);
+  });
+  kd_split(mix, dims, leaf, first, mid);
+  kd_split(mix, dims, leaf, mid, last);
+}
+
+}  // namespace
+
+std::vector<std::size_t> kd_order(const ProductMixture& mix, const std::vector<int>& dims,
+                                  std::size_t leaf) {
+  std::vector<std::size_t> order(mix.size());
+  for (std::size_t m = 0; m < order.size(); ++m) order[m] = m;
+  if (!dims.empty() && leaf > 0)
+    kd_split(mix, dims, leaf, order.data(), order.data() + order.size());
+  return order;
 }
 
 }  // namespace btfgmm::detail

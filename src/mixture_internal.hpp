@@ -28,4 +28,11 @@ void record_iteration(EmResult& result, double ll, int iteration, const EmConfig
                       std::size_t components, std::chrono::steady_clock::time_point start,
                       const EmCallback& progress);
 
+// The components in the order of a k-d split of their means over the variables `dims`: the
+// set is split recursively, at a multiple of `leaf`, along the variable whose means spread
+// widest, so that every run of `leaf` components (a leaf) holds means close together. Ties
+// are broken by index: the order is a function of the parameters alone.
+std::vector<std::size_t> kd_order(const ProductMixture& mix, const std::vector<int>& dims,
+                                  std::size_t leaf);
+
 }  // namespace btfgmm::detail

@@ -348,6 +348,28 @@ TEST(Predict, DecodeEqualsPointPredictions) {
           for (int c = 0; c < 3; ++c) EXPECT_NEAR(d.at(l, v, x, y, c), rgb[i * 3 + c], 1e-3);
 }
 
+// Components narrow in x and y: over a block of pixels their log weights span far more than
+// float's range, so decode takes each pixel's own maximum (the two-pass path).
+TEST(Predict, DecodeOfNarrowComponentsEqualsPointPredictions) {
+  BtfModel m = two_component_model();
+  for (auto& v : m.mixture.var) v[0] = v[1] = 0.02;
+  const Btf d = decode(m, m.lights, m.views, 6, 5);
+  std::vector<Query> queries;
+  for (std::size_t l = 0; l < 5; l += 2)
+    for (std::size_t v = 0; v < 5; v += 2)
+      for (int y = 0; y < 5; ++y)
+        for (int x = 0; x < 6; ++x)
+          queries.push_back({double(x), double(y), m.lights[l], m.views[v]});
+  std::vector<float> rgb(queries.size() * 3);
+  predict(m, queries, rgb);
+  std::size_t i = 0;
+  for (std::size_t l = 0; l < 5; l += 2)
+    for (std::size_t v = 0; v < 5; v += 2)
+      for (int y = 0; y < 5; ++y)
+        for (int x = 0; x < 6; ++x, ++i)
+          for (int c = 0; c < 3; ++c) EXPECT_NEAR(d.at(l, v, x, y, c), rgb[i * 3 + c], 2e-3);
+}
+
 TEST(ModelFile, RoundTripIsBitExact) {
   const BtfModel m = two_component_model();
   const auto bytes = serialize_model(m);
