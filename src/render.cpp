@@ -47,6 +47,172 @@ struct Projected {
   double depth = 0;       // distance along the view axis
 };
 
+// The vertex attributes of the set-up, one float array each.
+enum Attribute { kPx, kPy, kPz, kNx, kNy, kNz, kTx, kTy, kTz, kBx, kBy, kBz, kU, kV, kAttributes };
+
+// What the per-pixel set-up needs of the scene: the vertex attributes, each triangle's
+// vertices and (unnormalised) face normal, the light, the eye and the tile.
+struct SetUpScene {
+  std::array<const float*, kAttributes> attr{};
+  const std::uint32_t* corner = nullptr;  // 3 a triangle
+  const float* face = nullptr;            // 3 a triangle
+  bool point_light = false;
+  float ldx = 0, ldy = 0, ldz = 0;  // toward a directional light
+  float lpx = 0, lpy = 0, lpz = 0;  // a point light's position
+  float intensity = 0;
+  float ex = 0, ey = 0, ez = 0;  // the eye
+  float texel = 0;               // tile pixels per unit of u and v
+  float tw = 0, th = 0;          // the tile
+};
+
+// The set-up's results, a float array each: x, y, light (3), view (3), irradiance.
+enum SetUpResult {
+  kResX,
+  kResY,
+  kResL0,
+  kResL1,
+  kResL2,
+  kResV0,
+  kResV1,
+  kResV2,
+  kResIrr,
+  kResults
+};
+
+inline float interpolate(const float* __restrict v, std::uint32_t i0, std::uint32_t i1,
+                         std::uint32_t i2, float l0, float l1, float l2) {
+  return v[i0] * l0 + v[i1] * l1 + v[i2] * l2;
+}
+
+// Sets up n covered pixels, given the triangle and the first two perspective-correct
+// barycentric coordinates of each: the surface point, its frame, the texture coordinate, and
+// the light and view directions in the frame; status 1 in the dark, 2 lit. One loop over the
+// pixels without calls or branches, vectorised (the vertex attributes gathered per lane).
+void set_up_pixels(const SetUpScene& s, const std::int32_t* __restrict tri,
+                   const float* __restrict b0, const float* __restrict b1, std::size_t n,
+                   std::array<std::vector<float>, kResults>& res, std::uint8_t* __restrict st) {
+  const std::uint32_t* __restrict cn = s.corner;
+  const float* __restrict fc = s.face;
+  const float* __restrict a_px = s.attr[kPx], * __restrict a_py = s.attr[kPy], * __restrict a_pz = s.attr[kPz], * __restrict a_nx = s.attr[kNx], * __restrict a_ny = s.attr[kNy], * __restrict a_nz = s.attr[kNz], * __restrict a_tx = s.attr[kTx], * __restrict a_ty = s.attr[kTy], * __restrict a_tz = s.attr[kTz], * __restrict a_bx = s.attr[kBx], * __restrict a_by = s.attr[kBy], * __restrict a_bz = s.attr[kBz], * __restrict a_u = s.attr[kU], * __restrict a_v = s.attr[kV];
+  float* __restrict r_x = res[kResX].data();
+  float* __restrict r_y = res[kResY].data();
+  float* __restrict r_l0 = res[kResL0].data();
+  float* __restrict r_l1 = res[kResL1].data();
+  float* __restrict r_l2 = res[kResL2].data();
+  float* __restrict r_v0 = res[kResV0].data();
+  float* __restrict r_v1 = res[kResV1].data();
+  float* __restrict r_v2 = res[kResV2].data();
+  float* __restrict r_irr = res[kResIrr].data();
+  const bool point_light = s.point_light;
+  const float ldx = s.ldx, ldy = s.ldy, ldz = s.ldz, lpx = s.lpx, lpy = s.lpy, lpz = s.lpz,
+              intensity = s.intensity, ex = s.ex, ey = s.ey, ez = s.ez, texel = s.texel, tw = s.tw,
+              th = s.th;
+#pragma omp simd
+  for (std::size_t k = 0; k < n; ++k) {
+    const std::size_t t = std::size_t(tri[k]);
+    const std::uint32_t i0 = cn[3 * t], i1 = cn[3 * t + 1], i2 = cn[3 * t + 2];
+    const float l0 = b0[k], l1 = b1[k], l2 = 1.0f - l0 - l1;
+    const float px = interpolate(a_px, i0, i1, i2, l0, l1, l2),
+                py = interpolate(a_py, i0, i1, i2, l0, l1, l2),
+                pz = interpolate(a_pz, i0, i1, i2, l0, l1, l2);
+    const float gx = fc[3 * t], gy = fc[3 * t + 1], gz = fc[3 * t + 2];
+    // The normal (the face's where the interpolated one vanishes).
+    float nx = interpolate(a_nx, i0, i1, i2, l0, l1, l2),
+          ny = interpolate(a_ny, i0, i1, i2, l0, l1, l2),
+          nz = interpolate(a_nz, i0, i1, i2, l0, l1, l2);
+    const float nl = std::sqrt(nx * nx + ny * ny + nz * nz);
+    const bool nok = nl > 1e-12f;
+    const float gl = std::sqrt(gx * gx + gy * gy + gz * gz);
+    const float ni = 1.0f / (nok ? nl : (gl > 0.0f ? gl : 1.0f));
+    nx = (nok ? nx : gx) * ni;
+    ny = (nok ? ny : gy) * ni;
+    nz = (nok ? nz : gz) * ni;
+    // The frame: tangent along +u made normal to the normal (any unit vector normal to it
+    // where that vanishes); bitangent normal to both, on the side of +v (a mirrored UV
+    // layout gives a mirrored, still consistent, frame).
+    float tx = interpolate(a_tx, i0, i1, i2, l0, l1, l2),
+          ty = interpolate(a_ty, i0, i1, i2, l0, l1, l2),
+          tz = interpolate(a_tz, i0, i1, i2, l0, l1, l2);
+    const float tn = tx * nx + ty * ny + tz * nz;
+    tx -= nx * tn;
+    ty -= ny * tn;
+    tz -= nz * tn;
+    const float tl = std::sqrt(tx * tx + ty * ty + tz * tz);
+    const bool tok = tl > 1e-12f;
+    const bool ax = std::abs(nx) < 0.9f;
+    const float an = ax ? nx : ny;  // a . n, a = (1, 0, 0) or (0, 1, 0)
+    const float qx = (ax ? 1.0f : 0.0f) - nx * an, qy = (ax ? 0.0f : 1.0f) - ny * an, qz = -nz * an;
+    const float ql = std::sqrt(qx * qx + qy * qy + qz * qz);
+    const float ti = 1.0f / (tok ? tl : ql);
+    tx = (tok ? tx : qx) * ti;
+    ty = (tok ? ty : qy) * ti;
+    tz = (tok ? tz : qz) * ti;
+    float bx = ny * tz - nz * ty, by = nz * tx - nx * tz, bz = nx * ty - ny * tx;
+    const float bs = bx * interpolate(a_bx, i0, i1, i2, l0, l1, l2) +
+                                 by * interpolate(a_by, i0, i1, i2, l0, l1, l2) +
+                                 bz * interpolate(a_bz, i0, i1, i2, l0, l1, l2) <
+                             0.0f
+                         ? -1.0f
+                         : 1.0f;
+    bx *= bs;
+    by *= bs;
+    bz *= bs;
+    // Seen from behind (an open surface such as the cloth), the back side shows the
+    // material too: the normal turns toward the viewer.
+    float vx = ex - px, vy = ey - py, vz = ez - pz;
+    const float vl = std::sqrt(vx * vx + vy * vy + vz * vz);
+    const float vi = 1.0f / (vl > 0.0f ? vl : 1.0f);
+    vx *= vi;
+    vy *= vi;
+    vz *= vi;
+    const bool flip = (gx * nx + gy * ny + gz * nz < 0.0f) != (gx * vx + gy * vy + gz * vz < 0.0f);
+    const float ns = flip ? -1.0f : 1.0f;
+    nx *= ns;
+    ny *= ns;
+    nz *= ns;
+    // A point light falls off with the squared distance; where it is at the point, the point
+    // is unlit.
+    const float dx = lpx - px, dy = lpy - py, dz = lpz - pz;
+    const float d2 = dx * dx + dy * dy + dz * dz;
+    const bool at_light = !(d2 > 0.0f);
+    const float di = 1.0f / std::sqrt(at_light ? 1.0f : d2);
+    const float lx = point_light ? (at_light ? nx : dx * di) : ldx,
+                ly = point_light ? (at_light ? ny : dy * di) : ldy,
+                lz = point_light ? (at_light ? nz : dz * di) : ldz;
+    const float irradiance =
+        point_light ? (at_light ? 0.0f : intensity / (at_light ? 1.0f : d2)) : intensity;
+    const float fl0 = lx * tx + ly * ty + lz * tz, fl1 = lx * bx + ly * by + lz * bz,
+                fl2 = lx * nx + ly * ny + lz * nz;
+    // In the dark: the light is below this point's horizon.
+    st[k] = !(fl2 > 0.0f) || !(irradiance > 0.0f) ? 1 : 2;
+    float fv0 = vx * tx + vy * ty + vz * tz, fv1 = vx * bx + vy * by + vz * bz,
+          fv2 = vx * nx + vy * ny + vz * nz;
+    // A shading normal may turn slightly away from the eye at a silhouette: the view is
+    // taken on the horizon there.
+    const float hl = std::sqrt(fv0 * fv0 + fv1 * fv1);
+    const bool below = fv2 < 0.0f, flat = !(hl > 0.0f);
+    const float hi = flat ? 0.0f : 1.0f / (flat ? 1.0f : hl);
+    fv0 = below ? fv0 * hi : fv0;
+    fv1 = below ? fv1 * hi : fv1;
+    fv2 = below ? (flat ? 1.0f : 0.0f) : fv2;
+    // The texture coordinate in tile pixels, wrapped into the tile.
+    const float u = interpolate(a_u, i0, i1, i2, l0, l1, l2) * texel,
+                w = interpolate(a_v, i0, i1, i2, l0, l1, l2) * texel;
+    float sx = u - tw * std::floor(u / tw), sy = w - th * std::floor(w / th);
+    sx = sx < 0.0f || sx >= tw ? 0.0f : sx;
+    sy = sy < 0.0f || sy >= th ? 0.0f : sy;
+    r_x[k] = sx;
+    r_y[k] = sy;
+    r_l0[k] = fl0;
+    r_l1[k] = fl1;
+    r_l2[k] = fl2;
+    r_v0[k] = fv0;
+    r_v1[k] = fv1;
+    r_v2[k] = fv2;
+    r_irr[k] = irradiance;
+  }
+}
+
 }  // namespace
 
 Camera Camera::orbit(const Direction& d, double radius, const Vec3& target, double fov_deg) {
@@ -166,7 +332,6 @@ SurfaceBuffer rasterize(const Mesh& mesh_in, const Camera& camera, const Light& 
   // background, 1 in the dark, 2 lit. The vertex attributes in float, one array each
   // (position, normal, tangent, bitangent: x, y, z; u, v), and each triangle's vertices and
   // (unnormalised) face normal, for a set-up vectorised over the pixels.
-  enum { kPx, kPy, kPz, kNx, kNy, kNz, kTx, kTy, kTz, kBx, kBy, kBz, kU, kV, kAttributes };
   const std::size_t nvert = m.position.size(), ntri = m.triangles.size();
   std::array<std::vector<float>, kAttributes> attr;
   for (auto& a : attr) a.resize(nvert);
@@ -191,14 +356,25 @@ SurfaceBuffer rasterize(const Mesh& mesh_in, const Camera& camera, const Light& 
     face[3 * t + 1] = float(g.y);
     face[3 * t + 2] = float(g.z);
   }
-  const float texel = float(settings.repeat * tile_width);  // tile pixels per unit of u and v
+  SetUpScene scene;
+  for (int a = 0; a < kAttributes; ++a) scene.attr[std::size_t(a)] = attr[std::size_t(a)].data();
+  scene.corner = corner.data();
+  scene.face = face.data();
+  scene.texel = float(settings.repeat * tile_width);
   const Vec3 light_dir = normalized(light.direction);
-  const bool point_light = light.kind == Light::Kind::kPoint;
-  const float ldx = float(light_dir.x), ldy = float(light_dir.y), ldz = float(light_dir.z),
-              lpx = float(light.position.x), lpy = float(light.position.y),
-              lpz = float(light.position.z), intensity = float(light.intensity),
-              ex = float(camera.eye.x), ey = float(camera.eye.y), ez = float(camera.eye.z),
-              tw = float(tile_width), th = float(tile_height);
+  scene.point_light = light.kind == Light::Kind::kPoint;
+  scene.ldx = float(light_dir.x);
+  scene.ldy = float(light_dir.y);
+  scene.ldz = float(light_dir.z);
+  scene.lpx = float(light.position.x);
+  scene.lpy = float(light.position.y);
+  scene.lpz = float(light.position.z);
+  scene.intensity = float(light.intensity);
+  scene.ex = float(camera.eye.x);
+  scene.ey = float(camera.eye.y);
+  scene.ez = float(camera.eye.z);
+  scene.tw = float(tile_width);
+  scene.th = float(tile_height);
 
   // Each band of kBand rows is a row of screen blocks of B x B pixels: rasterised, set up, and
   // its lit points stored in block order (the model evaluator bounds the model over a block).
@@ -218,12 +394,12 @@ SurfaceBuffer rasterize(const Mesh& mesh_in, const Camera& camera, const Light& 
     const std::size_t band_pixels = std::size_t(kBand) * std::size_t(W);
     std::vector<double> inv_depth(band_pixels);
     std::vector<std::int32_t> tri_of(band_pixels);
-    std::vector<std::array<double, 2>> bary(band_pixels);
+    std::vector<float> bary0(band_pixels), bary1(band_pixels);
     // The band's covered pixels in block order, and their set-up.
     std::vector<std::uint32_t> pix(band_pixels);
     std::vector<std::int32_t> ptri(band_pixels);
     std::vector<float> b0(band_pixels), b1(band_pixels);
-    std::array<std::vector<float>, 9> res;  // x, y, light, view, irradiance
+    std::array<std::vector<float>, kResults> res;
     for (auto& r : res) r.resize(band_pixels);
     std::vector<std::uint8_t> status(band_pixels);
     std::vector<std::uint32_t> block_end(std::size_t(bw) + 1);
@@ -244,8 +420,16 @@ SurfaceBuffer rasterize(const Mesh& mesh_in, const Camera& camera, const Light& 
         const int yb = std::min(y1 - 1, int(std::ceil(std::max({a.sy, b.sy, c.sy}))));
         const double ia = 1.0 / a.depth, ib = 1.0 / b.depth, ic = 1.0 / c.depth;
         const double inv_area = 1.0 / area;
+        const std::int32_t ti = std::int32_t(t);
         for (int y = ya; y <= yb; ++y) {
           const double py = y + 0.5;
+          const std::size_t row = std::size_t(y - y0) * std::size_t(W);
+          double* __restrict depth_row = inv_depth.data() + row;
+          std::int32_t* __restrict tri_row = tri_of.data() + row;
+          float* __restrict bary0_row = bary0.data() + row;
+          float* __restrict bary1_row = bary1.data() + row;
+          // Vectorised over the row: every pixel of the span computed, the nearer kept.
+#pragma omp simd
           for (int x = xa; x <= xb; ++x) {
             const double px = x + 0.5;
             // Screen-space barycentric coordinates; either winding (the mesh is two-sided).
@@ -254,14 +438,15 @@ SurfaceBuffer rasterize(const Mesh& mesh_in, const Camera& camera, const Light& 
             const double wa = ((b.sx - px) * (c.sy - py) - (b.sy - py) * (c.sx - px)) * inv_area;
             const double wb = ((c.sx - px) * (a.sy - py) - (c.sy - py) * (a.sx - px)) * inv_area;
             const double wc = ((a.sx - px) * (b.sy - py) - (a.sy - py) * (b.sx - px)) * inv_area;
-            if (wa < 0 || wb < 0 || wc < 0) continue;  // edges shared: no holes between
-            const double iz = (wa * ia + wb * ib + wc * ic) / (wa + wb + wc);
-            const std::size_t q = std::size_t(y - y0) * std::size_t(W) + std::size_t(x);
-            if (iz <= inv_depth[q]) continue;  // 1/depth: larger is nearer
-            inv_depth[q] = iz;
-            tri_of[q] = std::int32_t(t);
-            const double norm = 1.0 / (wa * ia + wb * ib + wc * ic);
-            bary[q] = {wa * ia * norm, wb * ib * norm};
+            const double h = wa * ia + wb * ib + wc * ic;
+            const double iz = h / (wa + wb + wc);
+            // Inside (edges shared: no holes between) and nearer (1/depth: larger is nearer).
+            const bool take = !(wa < 0) && !(wb < 0) && !(wc < 0) && !(iz <= depth_row[x]);
+            const double norm = 1.0 / h;
+            depth_row[x] = take ? iz : depth_row[x];
+            tri_row[x] = take ? ti : tri_row[x];
+            bary0_row[x] = take ? float(wa * ia * norm) : bary0_row[x];
+            bary1_row[x] = take ? float(wb * ib * norm) : bary1_row[x];
           }
         }
       }
@@ -272,131 +457,21 @@ SurfaceBuffer rasterize(const Mesh& mesh_in, const Camera& camera, const Light& 
         for (int y = y0; y < y1; ++y)
           for (int x = bx * B; x < std::min(W, bx * B + B); ++x) {
             const std::size_t q = std::size_t(y - y0) * std::size_t(W) + std::size_t(x);
-            if (tri_of[q] < 0) continue;
             pix[n] = std::uint32_t(std::size_t(y) * std::size_t(W) + std::size_t(x));
             ptri[n] = tri_of[q];
-            b0[n] = float(bary[q][0]);
-            b1[n] = float(bary[q][1]);
-            ++n;
+            b0[n] = bary0[q];
+            b1[n] = bary1[q];
+            n += tri_of[q] >= 0;
           }
         block_end[std::size_t(bx) + 1] = std::uint32_t(n);
       }
-      const std::uint32_t* __restrict cn = corner.data();
-      const float* __restrict fc = face.data();
-      const float* ap[kAttributes];
-      for (int a = 0; a < kAttributes; ++a) ap[a] = attr[std::size_t(a)].data();
-      float* __restrict r_x = res[0].data();
-      float* __restrict r_y = res[1].data();
-      float* __restrict r_l0 = res[2].data();
-      float* __restrict r_l1 = res[3].data();
-      float* __restrict r_l2 = res[4].data();
-      float* __restrict r_v0 = res[5].data();
-      float* __restrict r_v1 = res[6].data();
-      float* __restrict r_v2 = res[7].data();
-      float* __restrict r_irr = res[8].data();
-      std::uint8_t* __restrict st = status.data();
-#pragma omp simd
-      for (std::size_t k = 0; k < n; ++k) {
-        const std::size_t t = std::size_t(ptri[k]);
-        const std::uint32_t i0 = cn[3 * t], i1 = cn[3 * t + 1], i2 = cn[3 * t + 2];
-        const float l0 = b0[k], l1 = b1[k], l2 = 1.0f - l0 - l1;
-        const auto lerp = [&](int a) {
-          const float* v = ap[a];
-          return v[i0] * l0 + v[i1] * l1 + v[i2] * l2;
-        };
-        const float px = lerp(kPx), py = lerp(kPy), pz = lerp(kPz);
-        const float gx = fc[3 * t], gy = fc[3 * t + 1], gz = fc[3 * t + 2];
-        // The normal (the face's where the interpolated one vanishes).
-        float nx = lerp(kNx), ny = lerp(kNy), nz = lerp(kNz);
-        const float nl = std::sqrt(nx * nx + ny * ny + nz * nz);
-        const bool nok = nl > 1e-12f;
-        const float gl = std::sqrt(gx * gx + gy * gy + gz * gz);
-        const float ni = nok ? 1.0f / nl : (gl > 0.0f ? 1.0f / gl : 1.0f);
-        nx = (nok ? nx : gx) * ni;
-        ny = (nok ? ny : gy) * ni;
-        nz = (nok ? nz : gz) * ni;
-        // The frame: tangent along +u made normal to the normal (any unit vector normal to it
-        // where that vanishes); bitangent normal to both, on the side of +v (a mirrored UV
-        // layout gives a mirrored, still consistent, frame).
-        float tx = lerp(kTx), ty = lerp(kTy), tz = lerp(kTz);
-        const float tn = tx * nx + ty * ny + tz * nz;
-        tx -= nx * tn;
-        ty -= ny * tn;
-        tz -= nz * tn;
-        const float tl = std::sqrt(tx * tx + ty * ty + tz * tz);
-        const bool tok = tl > 1e-12f;
-        const bool ax = std::abs(nx) < 0.9f;
-        const float an = ax ? nx : ny;  // a . n, a = (1, 0, 0) or (0, 1, 0)
-        const float qx = (ax ? 1.0f : 0.0f) - nx * an, qy = (ax ? 0.0f : 1.0f) - ny * an,
-                    qz = -nz * an;
-        const float ql = std::sqrt(qx * qx + qy * qy + qz * qz);
-        const float ti = tok ? 1.0f / tl : 1.0f / ql;
-        tx = (tok ? tx : qx) * ti;
-        ty = (tok ? ty : qy) * ti;
-        tz = (tok ? tz : qz) * ti;
-        float bx = ny * tz - nz * ty, by = nz * tx - nx * tz, bz = nx * ty - ny * tx;
-        const float bs = bx * lerp(kBx) + by * lerp(kBy) + bz * lerp(kBz) < 0.0f ? -1.0f : 1.0f;
-        bx *= bs;
-        by *= bs;
-        bz *= bs;
-        // Seen from behind (an open surface such as the cloth), the back side shows the
-        // material too: the normal turns toward the viewer.
-        float vx = ex - px, vy = ey - py, vz = ez - pz;
-        const float vl = std::sqrt(vx * vx + vy * vy + vz * vz);
-        const float vi = vl > 0.0f ? 1.0f / vl : 1.0f;
-        vx *= vi;
-        vy *= vi;
-        vz *= vi;
-        const bool flip =
-            (gx * nx + gy * ny + gz * nz < 0.0f) != (gx * vx + gy * vy + gz * vz < 0.0f);
-        const float ns = flip ? -1.0f : 1.0f;
-        nx *= ns;
-        ny *= ns;
-        nz *= ns;
-        float lx = ldx, ly = ldy, lz = ldz, irradiance = intensity;
-        if (point_light) {
-          const float dx = lpx - px, dy = lpy - py, dz = lpz - pz;
-          const float d2 = dx * dx + dy * dy + dz * dz;
-          const float di = d2 > 0.0f ? 1.0f / std::sqrt(d2) : 0.0f;
-          lx = d2 > 0.0f ? dx * di : nx;
-          ly = d2 > 0.0f ? dy * di : ny;
-          lz = d2 > 0.0f ? dz * di : nz;
-          irradiance = d2 > 0.0f ? intensity / d2 : 0.0f;
-        }
-        const float fl0 = lx * tx + ly * ty + lz * tz, fl1 = lx * bx + ly * by + lz * bz,
-                    fl2 = lx * nx + ly * ny + lz * nz;
-        // In the dark: the light is below this point's horizon.
-        st[k] = !(fl2 > 0.0f) || !(irradiance > 0.0f) ? 1 : 2;
-        float fv0 = vx * tx + vy * ty + vz * tz, fv1 = vx * bx + vy * by + vz * bz,
-              fv2 = vx * nx + vy * ny + vz * nz;
-        // A shading normal may turn slightly away from the eye at a silhouette: the view is
-        // taken on the horizon there.
-        const float hl = std::sqrt(fv0 * fv0 + fv1 * fv1);
-        const bool below = fv2 < 0.0f, flat = !(hl > 0.0f);
-        const float hi = flat ? 0.0f : 1.0f / hl;
-        fv0 = below ? fv0 * hi : fv0;
-        fv1 = below ? fv1 * hi : fv1;
-        fv2 = below ? (flat ? 1.0f : 0.0f) : fv2;
-        // The texture coordinate in tile pixels, wrapped into the tile.
-        const float u = lerp(kU) * texel, w = lerp(kV) * texel;
-        float sx = u - tw * std::floor(u / tw), sy = w - th * std::floor(w / th);
-        sx = sx < 0.0f || sx >= tw ? 0.0f : sx;
-        sy = sy < 0.0f || sy >= th ? 0.0f : sy;
-        r_x[k] = sx;
-        r_y[k] = sy;
-        r_l0[k] = fl0;
-        r_l1[k] = fl1;
-        r_l2[k] = fl2;
-        r_v0[k] = fv0;
-        r_v1[k] = fv1;
-        r_v2[k] = fv2;
-        r_irr[k] = irradiance;
-      }
+      set_up_pixels(scene, ptri.data(), b0.data(), b1.data(), n, res, status.data());
       // The lit points, in block order.
       std::vector<SurfacePoint>& bp = band_points[std::size_t(band)];
       std::vector<std::uint32_t>& bpix = band_pixel[std::size_t(band)];
       std::vector<std::uint32_t>& bc = band_count[std::size_t(band)];
       bc.assign(std::size_t(bw), 0);
+      const std::uint8_t* st = status.data();
       std::size_t lit = 0;
       for (std::size_t k = 0; k < n; ++k) lit += st[k] == 2;
       bp.resize(lit);
@@ -407,11 +482,11 @@ SurfaceBuffer rasterize(const Mesh& mesh_in, const Camera& camera, const Light& 
           out.coverage[pix[k]] = st[k];
           if (st[k] != 2) continue;
           SurfacePoint& sp = bp[j];
-          sp.x = r_x[k];
-          sp.y = r_y[k];
-          sp.light = {r_l0[k], r_l1[k], r_l2[k]};
-          sp.view = {r_v0[k], r_v1[k], r_v2[k]};
-          sp.irradiance = r_irr[k];
+          sp.x = res[kResX][k];
+          sp.y = res[kResY][k];
+          sp.light = {res[kResL0][k], res[kResL1][k], res[kResL2][k]};
+          sp.view = {res[kResV0][k], res[kResV1][k], res[kResV2][k]};
+          sp.irradiance = res[kResIrr][k];
           bpix[j++] = pix[k];
           ++bc[std::size_t(bx)];
         }
@@ -452,15 +527,20 @@ Rendering compose(const SurfaceBuffer& s, std::span<const float> point_rgb,
   const std::size_t npix = std::size_t(s.width) * std::size_t(s.height);
   r.rgb.resize(npix * 3);
   r.object.resize(npix);
-  for (std::size_t p = 0; p < npix; ++p) {
+  const std::ptrdiff_t np = std::ptrdiff_t(npix), npoints = std::ptrdiff_t(s.points.size());
+#pragma omp parallel for schedule(static)
+  for (std::ptrdiff_t pi = 0; pi < np; ++pi) {
+    const std::size_t p = std::size_t(pi);
     r.object[p] = s.coverage[p] != 0;
     for (int c = 0; c < 3; ++c)
       r.rgb[p * 3 + std::size_t(c)] =
           s.coverage[p] == 0 ? settings.background[std::size_t(c)] : 0.0f;
   }
   const double scale = std::exp2(settings.exposure);
-  for (std::size_t i = 0; i < s.points.size(); ++i) {
-    const std::size_t p = s.pixel[i];
+  // Each point has a pixel of its own.
+#pragma omp parallel for schedule(static)
+  for (std::ptrdiff_t pi = 0; pi < npoints; ++pi) {
+    const std::size_t i = std::size_t(pi), p = s.pixel[i];
     for (int c = 0; c < 3; ++c) {
       double v = double(point_rgb[i * 3 + std::size_t(c)]) * s.points[i].irradiance * scale;
       if (format == SampleFormat::kHdr) {
