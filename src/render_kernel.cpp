@@ -46,6 +46,9 @@ double since(Clock::time_point t) {
 }
 
 constexpr int kMaxBlock = int(ModelEvaluator::kGroup);
+// The most pairs of light and view triangles whose affine weights a block's mean BRDF takes
+// before the points still left take the exact look-up.
+constexpr int kAffineRounds = 4;
 
 // 2^x for x <= 0, vectorisable: x = n + f, |f| <= 1/2, 2^f by Cephes' exp2f polynomial
 // (relative error ~2e-7), 2^n added to the exponent bits. Inputs below -126 give 2^-126.
@@ -675,24 +678,24 @@ EvaluationStats ModelEvaluator::evaluate(std::span<const SurfacePoint> points, s
       // 1. The inputs in model units, lane by lane; the last point repeated to whole vectors.
       const int nv = (n + kLanes - 1) / kLanes, padded = nv * kLanes;
       for (int i = 0; i < n; ++i) {
-        in->x[0][i] = float(wrap(pts[i].x, k.width));
-        in->x[1][i] = float(wrap(pts[i].y, k.height));
-      }
-      // Onion-slice angles (directions.hpp): alpha = atan2(y, z), beta = asin(x) =
-      // atan2(x, sqrt(1 - x^2)); z >= 0.
-#pragma omp simd
-      for (int i = 0; i < n; ++i) {
         const SurfacePoint& p = pts[i];
-        const float lx = std::clamp(p.light[0], -1.0f, 1.0f),
-                    vx = std::clamp(p.view[0], -1.0f, 1.0f);
-        in->x[2][i] = atan2_right(p.light[1], p.light[2]) * u2;
-        in->x[3][i] = atan2_right(lx, std::sqrt((1.0f - lx) * (1.0f + lx))) * u3;
-        in->x[4][i] = atan2_right(p.view[1], p.view[2]) * u4;
-        in->x[5][i] = atan2_right(vx, std::sqrt((1.0f - vx) * (1.0f + vx))) * u5;
+        in->x[0][i] = float(wrap(p.x, k.width));
+        in->x[1][i] = float(wrap(p.y, k.height));
         for (int c = 0; c < 3; ++c) {
           in->dir[c][i] = p.light[std::size_t(c)];
           in->dir[3 + c][i] = p.view[std::size_t(c)];
         }
+      }
+      // Onion-slice angles (directions.hpp): alpha = atan2(y, z), beta = asin(x) =
+      // atan2(x, sqrt(1 - x^2)); z >= 0. Vectorised over the points.
+#pragma omp simd
+      for (int i = 0; i < n; ++i) {
+        const float lx = std::clamp(in->dir[0][i], -1.0f, 1.0f),
+                    vx = std::clamp(in->dir[3][i], -1.0f, 1.0f);
+        in->x[2][i] = atan2_right(in->dir[1][i], in->dir[2][i]) * u2;
+        in->x[3][i] = atan2_right(lx, std::sqrt((1.0f - lx) * (1.0f + lx))) * u3;
+        in->x[4][i] = atan2_right(in->dir[4][i], in->dir[5][i]) * u4;
+        in->x[5][i] = atan2_right(vx, std::sqrt((1.0f - vx) * (1.0f + vx))) * u5;
       }
       for (int d = 0; d < kInputs; ++d)
         for (int i = n; i < padded; ++i) in->x[d][i] = in->x[d][n - 1];
@@ -749,45 +752,60 @@ EvaluationStats ModelEvaluator::evaluate(std::span<const SurfacePoint> points, s
                            std::size_t(c)];
       };
       const float unit0 = float(k.unit[6]), unit1 = float(k.unit[7]), unit2 = float(k.unit[8]);
-      const auto wl0 =
-          k.lights_interp.weights(Vec3{pts[0].light[0], pts[0].light[1], pts[0].light[2]}, hint_l);
-      const auto wv0 =
-          k.views_interp.weights(Vec3{pts[0].view[0], pts[0].view[1], pts[0].view[2]}, hint_v);
-      const AffineTriangle tl = affine_triangle(k.light_xy, wl0.index),
-                           tv = affine_triangle(k.view_xy, wv0.index);
-      float table[3][3][3];
-      for (int a = 0; a < 3; ++a)
-        for (int b = 0; b < 3; ++b)
-          for (int c = 0; c < 3; ++c) table[a][b][c] = mean_brdf(wl0, wv0, a, b, c);
-      const bool fast = tl.ok && tv.ok;
       float* out = &rgb[p0 * 3];
-#pragma omp simd
-      for (int i = 0; i < n; ++i) {
-        float q[2][2];
-        for (int s = 0; s < 2; ++s) {
-          const float x = in->dir[3 * s][i], y = in->dir[3 * s + 1][i],
-                      z = std::max(in->dir[3 * s + 2][i], 0.0f);
-          const float inv = 1.0f / std::sqrt(x * x + y * y + z * z);
-          q[s][0] = x * inv;
-          q[s][1] = y * inv;
-        }
-        float wl[3], wv[3];
-        for (int a = 0; a < 3; ++a) {
-          wl[a] = tl.c[a][0] + tl.c[a][1] * q[0][0] + tl.c[a][2] * q[0][1];
-          wv[a] = tv.c[a][0] + tv.c[a][1] * q[1][0] + tv.c[a][2] * q[1][1];
-        }
-        const float m = std::min({wl[0], wl[1], wl[2], wv[0], wv[1], wv[2]});
-        float mb[3] = {0, 0, 0};
+      // Rounds: the light and view triangles of the first point still left (the block's first
+      // point in the first round) serve every left point well inside both.
+      std::fill(exact.begin(), exact.begin() + n, std::uint8_t(1));
+      int first = 0;
+      for (int round = 0; round < kAffineRounds && first < n; ++round) {
+        const SurfacePoint& seed = pts[first];
+        const auto wl0 =
+            k.lights_interp.weights(Vec3{seed.light[0], seed.light[1], seed.light[2]}, hint_l);
+        const auto wv0 =
+            k.views_interp.weights(Vec3{seed.view[0], seed.view[1], seed.view[2]}, hint_v);
+        const AffineTriangle tl = affine_triangle(k.light_xy, wl0.index),
+                             tv = affine_triangle(k.view_xy, wv0.index);
+        if (!(tl.ok && tv.ok)) break;
+        float table[3][3][3];
         for (int a = 0; a < 3; ++a)
-          for (int b = 0; b < 3; ++b) {
-            const float w = wl[a] * wv[b];
-            for (int c = 0; c < 3; ++c) mb[c] += w * table[a][b][c];
+          for (int b = 0; b < 3; ++b)
+            for (int c = 0; c < 3; ++c) table[a][b][c] = mean_brdf(wl0, wv0, a, b, c);
+        std::uint8_t* __restrict ex = exact.data();
+#pragma omp simd
+        for (int i = first; i < n; ++i) {
+          float q[2][2];
+          for (int s = 0; s < 2; ++s) {
+            const float x = in->dir[3 * s][i], y = in->dir[3 * s + 1][i],
+                        z = std::max(in->dir[3 * s + 2][i], 0.0f);
+            const float inv = 1.0f / std::sqrt(x * x + y * y + z * z);
+            q[s][0] = x * inv;
+            q[s][1] = y * inv;
           }
-        exact[std::size_t(i)] = !(fast && m > 1e-4f);
-        const float inv_sum = 1.0f / in->sum[0][i];
-        out[i * 3] = in->sum[1][i] * inv_sum * unit0 + mb[0];
-        out[i * 3 + 1] = in->sum[2][i] * inv_sum * unit1 + mb[1];
-        out[i * 3 + 2] = in->sum[3][i] * inv_sum * unit2 + mb[2];
+          float wl[3], wv[3];
+          for (int a = 0; a < 3; ++a) {
+            wl[a] = tl.c[a][0] + tl.c[a][1] * q[0][0] + tl.c[a][2] * q[0][1];
+            wv[a] = tv.c[a][0] + tv.c[a][1] * q[1][0] + tv.c[a][2] * q[1][1];
+          }
+          const float m = std::min(std::min(std::min(wl[0], wl[1]), std::min(wl[2], wv[0])),
+                                   std::min(wv[1], wv[2]));
+          float mb[3] = {0, 0, 0};
+          for (int a = 0; a < 3; ++a)
+            for (int b = 0; b < 3; ++b) {
+              const float w = wl[a] * wv[b];
+              for (int c = 0; c < 3; ++c) mb[c] += w * table[a][b][c];
+            }
+          // (Every value computed on every lane, then selected: no branches in the loop.)
+          const bool done = (ex[i] != 0) & (m > 1e-4f);
+          const float inv_sum = 1.0f / in->sum[0][i];
+          const float c0 = in->sum[1][i] * inv_sum * unit0 + mb[0],
+                      c1 = in->sum[2][i] * inv_sum * unit1 + mb[1],
+                      c2 = in->sum[3][i] * inv_sum * unit2 + mb[2];
+          out[i * 3] = done ? c0 : out[i * 3];
+          out[i * 3 + 1] = done ? c1 : out[i * 3 + 1];
+          out[i * 3 + 2] = done ? c2 : out[i * 3 + 2];
+          ex[i] = done ? std::uint8_t(0) : ex[i];
+        }
+        while (first < n && !exact[std::size_t(first)]) ++first;
       }
       for (int i = 0; i < n; ++i) {
         if (!exact[std::size_t(i)]) continue;
