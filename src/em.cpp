@@ -362,7 +362,7 @@ double e_pass(const SampleSet& s, const Tables& t, const std::vector<std::uint8_
             detail::ChunkBound cb;
             cb.padded_chunks = t.padded_chunks;
             for (std::size_t j = 0; j < st / kLanes; ++j)
-              w.sl_max[j] = *std::max_element(&w.sl[j * kLanes], &w.sl[(j + 1) * kLanes]);
+              w.sl_max[j] = detail::hmax16(_mm512_loadu_ps(&w.sl[j * kLanes]));
             cb.sl_max = w.sl_max.data();
             for (std::size_t k = 0; k < 3; ++k) {
               cb.lo[k] = t.lo[k].data();
