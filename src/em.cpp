@@ -19,6 +19,7 @@
 #include <cmath>
 #include <cstdint>
 #include <exception>
+#include <limits>
 #include <numbers>
 
 #include "btfgmm/error.hpp"
@@ -502,8 +503,17 @@ EmResult fit_em(const SampleSet& s, ProductMixture& mix, const EmConfig& config,
       return result;
     }
   }
-  result.final_log_likelihood = e_pass(s, make_tables(s, mix), order, threads, nullptr, nullptr);
+  result.final_log_likelihood =
+      config.final_log_likelihood ? e_pass(s, make_tables(s, mix), order, threads, nullptr, nullptr)
+                                  : std::numeric_limits<double>::quiet_NaN();
   return result;
+}
+
+double mean_log_likelihood(const SampleSet& s, const ProductMixture& mix, int threads) {
+  EmConfig c;
+  c.threads = threads;
+  detail::check_em_input(s.size(), mix, c);
+  return e_pass(s, make_tables(s, mix), view_order(s), resolve_threads(threads), nullptr, nullptr);
 }
 
 }  // namespace btfgmm

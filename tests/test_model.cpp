@@ -227,6 +227,24 @@ TEST(Em, GridPathWithSkippingEqualsReferencePath) {
   }
 }
 
+TEST(Em, FinalLogLikelihoodIsThatOfTheReturnedParameters) {
+  const Btf btf =
+      small_btf(8, 8, DirectionSet::parse("rings:0/1,40/6"), DirectionSet::parse("rings:0/1,40/6"));
+  const SampleSet s = make_sample_set(btf);
+  ProductMixture a = initial_mixture(s, 40, 9), b = a;
+  EmConfig c;
+  c.max_iterations = 3;
+  const EmResult ra = fit_em(s, a, c);
+  EXPECT_DOUBLE_EQ(ra.final_log_likelihood, mean_log_likelihood(s, a));
+  EXPECT_GT(ra.final_log_likelihood, ra.log_likelihood.back());  // EM's gain
+  EXPECT_NEAR(mean_log_likelihood(s, a), mean_log_likelihood(explicit_samples(s), a),
+              1e-6 * std::abs(ra.final_log_likelihood));
+  c.final_log_likelihood = false;
+  const EmResult rb = fit_em(s, b, c);
+  EXPECT_TRUE(std::isnan(rb.final_log_likelihood));
+  EXPECT_EQ(rb.log_likelihood, ra.log_likelihood);
+}
+
 TEST(Em, SameModelWithOneOrTwoThreads) {
   const Btf btf =
       small_btf(8, 8, DirectionSet::parse("rings:0/1,40/6"), DirectionSet::parse("rings:0/1,40/6"));

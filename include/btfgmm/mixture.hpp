@@ -48,6 +48,9 @@ struct EmConfig {
   // Checked after every iteration: when set, the fit stops there (EmResult::interrupted) and
   // can be resumed from the state it returns.
   const std::atomic<bool>* stop = nullptr;
+  // After the last iteration, one more E pass (without statistics) gives L of the returned
+  // parameters (EmResult::final_log_likelihood); off, that field is NaN.
+  bool final_log_likelihood = true;
 };
 
 // One EM iteration as it finished: L of Eq. (3) for the parameters the iteration started

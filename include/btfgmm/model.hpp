@@ -77,6 +77,11 @@ EmResult fit_em(const SampleSet& samples, ProductMixture& mixture, const EmConfi
                 const EmCallback& progress = {}, const EmResult* resume = nullptr,
                 const EmStateCallback& after_iteration = {});
 
+// L of Eq. (3), the mean log-likelihood of the sample set under `mixture`, by fit_em's E pass
+// (`threads` 0: all cores).
+double mean_log_likelihood(const SampleSet& samples, const ProductMixture& mixture,
+                           int threads = 0);
+
 enum class Precision : std::uint32_t { kF32 = 0, kF16 = 1 };
 
 struct FitSettings {
