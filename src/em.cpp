@@ -21,6 +21,7 @@
 #include <exception>
 #include <limits>
 #include <numbers>
+#include <type_traits>
 
 #include "btfgmm/error.hpp"
 #include "btfgmm/model.hpp"
@@ -372,11 +373,13 @@ double e_pass(const SampleSet& s, const Tables& t, const std::vector<std::uint8_
             }
             cb.ub = w.ub.data();
             cb.candidates = w.candidates.data();
-            for (; v + 4 <= nv; v += 4) {
-              const float* vrow[4];
-              float r[4][3];
-              float* qv[4];
-              for (int g = 0; g < 4; ++g) {
+            // Groups of four views, then the remaining views one at a time.
+            auto group = [&](auto size) {
+              constexpr int G = decltype(size)::value;
+              const float* vrow[G];
+              float r[G][3];
+              float* qv[G];
+              for (int g = 0; g < G; ++g) {
                 const std::size_t view = views[v + std::size_t(g)];
                 vrow[g] = &t.v[view * st];
                 const float* rr = &s.residual[s.index(p, l, view) * 3];
@@ -384,11 +387,14 @@ double e_pass(const SampleSet& s, const Tables& t, const std::vector<std::uint8_
                 qv[g] = &w.qv[view * st];
                 cb.v_max[g] = &t.v_max[view * t.padded_chunks];
               }
-              ll += detail::group_pass4_avx512(st, w.sl.data(), t.mu.data(),
-                                               t.neg_half_inv_var.data(), vrow, r, w.t.data(),
-                                               w.live_list.data(), t.skip_margin, want, w.a0.data(),
-                                               w.a1.data(), w.a2.data(), qv, cb);
-            }
+              ll += detail::group_pass_avx512<G>(st, w.sl.data(), t.mu.data(),
+                                                 t.neg_half_inv_var.data(), vrow, r, w.t.data(),
+                                                 w.live_list.data(), t.skip_margin, want,
+                                                 w.a0.data(), w.a1.data(), w.a2.data(), qv, cb);
+              v += std::size_t(G);
+            };
+            while (v + 4 <= nv) group(std::integral_constant<int, 4>{});
+            while (v < nv) group(std::integral_constant<int, 1>{});
 #endif
             for (; v + kGroup <= nv; v += kGroup)
               ll += group_pass<kGroup>(t, s, p, l, views + v, w, want);

@@ -1,6 +1,6 @@
-// The E pass of a group of four samples with AVX-512 intrinsics (em.cpp's group_pass, the
-// same arithmetic): the compiler does not keep the per-vector skip test and the running sums
-// in registers on its own. Included by em.cpp only where __AVX512F__ is defined.
+// The E pass of a group of samples with AVX-512 intrinsics (em.cpp's group_pass, the same
+// arithmetic): the compiler does not keep the per-vector skip test and the running sums in
+// registers on its own. Included by em.cpp and predict.cpp only where __AVX512F__ is defined.
 #pragma once
 
 // GCC 12's AVX-512 headers trip -Wmaybe-uninitialized on their own _mm512_undefined_ps.
@@ -69,34 +69,46 @@ struct ChunkBound {
   const float* lo[3] = {};
   const float* hi[3] = {};
   const float* h_max[3] = {};
-  float* ub = nullptr;                  // scratch, padded_chunks
+  float* ub = nullptr;                  // scratch, 5 x padded_chunks
   std::uint32_t* candidates = nullptr;  // scratch, st / 16
 };
 
-inline double group_pass4_avx512(std::size_t st, const float* sl, const float* mu, const float* h,
-                                 const float* const vrow_in[4], const float r[4][3], float* tt,
-                                 std::uint32_t* live, float margin, bool stats, float* a0,
-                                 float* a1, float* a2, float* const qv_in[4],
-                                 const ChunkBound& cb) {
+// G (1 to 4) samples of one (pixel, light) block: Eq. (3)-(4) for each, and with `stats` the
+// responsibilities folded into the block's accumulators at once. sl: the block's S + L row;
+// mu, h: the colour means and -1/(2 sigma^2), 3 rows of st; vrow_in[g]: the view table rows;
+// r[g]: the residual colours; tt: G x st scratch; live: scratch of st / 16 indices; margin:
+// the skip margin; a0 (st), a1, a2 (3 st): sum q, sum q d, sum q d^2 (d = colour - mean);
+// qv_in[g] (st each): sum q per view; cb: the chunk bound (cb.v_max[g] the views' rows).
+// Returns the sum of the G samples' log-likelihoods. The G samples share every load of a
+// component's parameters.
+template <int G>
+inline double group_pass_avx512(std::size_t st, const float* sl, const float* mu, const float* h,
+                                const float* const vrow_in[G], const float r[G][3], float* tt,
+                                std::uint32_t* live, float margin, bool stats, float* a0, float* a1,
+                                float* a2, float* const qv_in[G], const ChunkBound& cb) {
   const std::size_t chunks = st / 16;
   // Local copies: the stores below could alias the arrays, so the compiler would reload the
   // row pointers from them on every vector.
-  const float* const vrow[4] = {vrow_in[0], vrow_in[1], vrow_in[2], vrow_in[3]};
-  float* const qv[4] = {qv_in[0], qv_in[1], qv_in[2], qv_in[3]};
-  __m512 rv[4][3];
-  __m512 mxv[4];
-  for (int g = 0; g < 4; ++g) {
+  const float* vrow[G];
+  float* qv[G];
+  for (int g = 0; g < G; ++g) {
+    vrow[g] = vrow_in[g];
+    qv[g] = qv_in[g];
+  }
+  __m512 rv[G][3];
+  __m512 mxv[G];
+  for (int g = 0; g < G; ++g) {
     for (int c = 0; c < 3; ++c) rv[g][c] = _mm512_set1_ps(r[g][c]);
     mxv[g] = _mm512_set1_ps(-INFINITY);
   }
   // log w_m F(x | m) of the chunk at o for the four samples, into tt and out.
-  auto densities = [&](std::size_t o, __m512 out[4]) {
+  auto densities = [&](std::size_t o, __m512 out[G]) {
     const __m512 base = _mm512_loadu_ps(sl + o);
     const __m512 m0 = _mm512_loadu_ps(mu + o), m1 = _mm512_loadu_ps(mu + st + o),
                  m2 = _mm512_loadu_ps(mu + 2 * st + o);
     const __m512 k0 = _mm512_loadu_ps(h + o), k1 = _mm512_loadu_ps(h + st + o),
                  k2 = _mm512_loadu_ps(h + 2 * st + o);
-    for (int g = 0; g < 4; ++g) {
+    for (int g = 0; g < G; ++g) {
       const __m512 d0 = _mm512_sub_ps(rv[g][0], m0), d1 = _mm512_sub_ps(rv[g][1], m1),
                    d2 = _mm512_sub_ps(rv[g][2], m2);
       __m512 x = _mm512_add_ps(base, _mm512_loadu_ps(vrow[g] + o));
@@ -113,13 +125,13 @@ inline double group_pass4_avx512(std::size_t st, const float* sl, const float* m
   __m512 best = _mm512_set1_ps(-INFINITY);
   for (std::size_t j = 0; j < pc; j += 16) {
     const __m512 slm = _mm512_loadu_ps(cb.sl_max + j);
-    __m512 gap2[4][3];
+    __m512 gap2[G][3];
     {
       const __m512 lo0 = _mm512_loadu_ps(cb.lo[0] + j), lo1 = _mm512_loadu_ps(cb.lo[1] + j),
                    lo2 = _mm512_loadu_ps(cb.lo[2] + j), hi0 = _mm512_loadu_ps(cb.hi[0] + j),
                    hi1 = _mm512_loadu_ps(cb.hi[1] + j), hi2 = _mm512_loadu_ps(cb.hi[2] + j);
       const __m512 lo[3] = {lo0, lo1, lo2}, hi[3] = {hi0, hi1, hi2};
-      for (int g = 0; g < 4; ++g)
+      for (int g = 0; g < G; ++g)
         for (int c = 0; c < 3; ++c) {
           const __m512 gap = _mm512_max_ps(
               _mm512_max_ps(_mm512_sub_ps(lo[c], rv[g][c]), _mm512_sub_ps(rv[g][c], hi[c])),
@@ -130,7 +142,7 @@ inline double group_pass4_avx512(std::size_t st, const float* sl, const float* m
     const __m512 hm0 = _mm512_loadu_ps(cb.h_max[0] + j), hm1 = _mm512_loadu_ps(cb.h_max[1] + j),
                  hm2 = _mm512_loadu_ps(cb.h_max[2] + j);
     __m512 all = _mm512_set1_ps(-INFINITY);
-    for (int g = 0; g < 4; ++g) {
+    for (int g = 0; g < G; ++g) {
       __m512 u = _mm512_add_ps(slm, _mm512_loadu_ps(cb.v_max[g] + j));
       u = _mm512_fmadd_ps(hm0, gap2[g][0], u);
       u = _mm512_fmadd_ps(hm1, gap2[g][1], u);
@@ -145,14 +157,14 @@ inline double group_pass4_avx512(std::size_t st, const float* sl, const float* m
   const float top = hmax16(best);
   std::size_t first = 0;
   while (first + 1 < chunks && cb.ub[4 * pc + first] != top) ++first;
-  __m512 probe[4];
+  __m512 probe[G];
   densities(first * 16, probe);
   // A chunk whose bounds are below each sample's lower bound by more than the margin holds
   // only densities below each sample's maximum by more than the margin: the exact skip below
   // would drop it, so its densities are not computed at all. The slack covers float rounding
   // of the bound and of the densities.
-  __m512 cut[4];
-  for (int g = 0; g < 4; ++g) {
+  __m512 cut[G];
+  for (int g = 0; g < G; ++g) {
     mxv[g] = probe[g];
     const float low = hmax16(probe[g]);
     cut[g] = _mm512_set1_ps(low - margin - (1e-3f + 1e-5f * (std::abs(low) + std::abs(top))));
@@ -161,7 +173,7 @@ inline double group_pass4_avx512(std::size_t st, const float* sl, const float* m
   const __m512i lane = _mm512_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
   for (std::size_t j = 0; j < pc; j += 16) {
     __mmask16 any = 0;
-    for (int g = 0; g < 4; ++g)
+    for (int g = 0; g < G; ++g)
       any |=
           _mm512_cmp_ps_mask(_mm512_loadu_ps(cb.ub + std::size_t(g) * pc + j), cut[g], _CMP_GE_OQ);
     if (first >= j && first < j + 16) any |= __mmask16(1u << (first - j));
@@ -173,13 +185,13 @@ inline double group_pass4_avx512(std::size_t st, const float* sl, const float* m
   // log w_m F(x | m) of the other candidates, and each sample's maximum.
   for (std::size_t i = 0; i < n_cand; ++i) {
     if (cb.candidates[i] == first) continue;
-    __m512 x[4];
+    __m512 x[G];
     densities(std::size_t(cb.candidates[i]) * 16, x);
-    for (int g = 0; g < 4; ++g) mxv[g] = _mm512_max_ps(mxv[g], x[g]);
+    for (int g = 0; g < G; ++g) mxv[g] = _mm512_max_ps(mxv[g], x[g]);
   }
-  float mx[4];
-  __m512 mxb[4], thr[4], sum[4];
-  for (int g = 0; g < 4; ++g) {
+  float mx[G];
+  __m512 mxb[G], thr[G], sum[G];
+  for (int g = 0; g < G; ++g) {
     mx[g] = hmax16(mxv[g]);
     mxb[g] = _mm512_set1_ps(mx[g]);
     thr[g] = _mm512_set1_ps(mx[g] - margin);
@@ -193,7 +205,7 @@ inline double group_pass4_avx512(std::size_t st, const float* sl, const float* m
     const std::uint32_t j = cb.candidates[i];
     const std::size_t o = std::size_t(j) * 16;
     __mmask16 any = 0;
-    for (int g = 0; g < 4; ++g)
+    for (int g = 0; g < G; ++g)
       any |= _mm512_cmp_ps_mask(_mm512_loadu_ps(tt + std::size_t(g) * st + o), thr[g], _CMP_GE_OQ);
     live[n_live] = j;
     n_live += any != 0;
@@ -201,7 +213,7 @@ inline double group_pass4_avx512(std::size_t st, const float* sl, const float* m
   // exp(t - max) on the live vectors.
   for (std::size_t i = 0; i < n_live; ++i) {
     const std::size_t o = std::size_t(live[i]) * 16;
-    for (int g = 0; g < 4; ++g) {
+    for (int g = 0; g < G; ++g) {
       float* p = tt + std::size_t(g) * st + o;
       const __m512 e = fast_exp16(_mm512_sub_ps(_mm512_loadu_ps(p), mxb[g]));
       _mm512_storeu_ps(p, e);
@@ -209,8 +221,8 @@ inline double group_pass4_avx512(std::size_t st, const float* sl, const float* m
     }
   }
   double ll = 0.0;
-  __m512 inv[4];
-  for (int g = 0; g < 4; ++g) {
+  __m512 inv[G];
+  for (int g = 0; g < G; ++g) {
     const float s = hsum16(sum[g]);
     ll += double(mx[g]) + std::log(double(s));
     inv[g] = _mm512_set1_ps(1.0f / s);
@@ -221,7 +233,7 @@ inline double group_pass4_avx512(std::size_t st, const float* sl, const float* m
     const __m512 m0 = _mm512_loadu_ps(mu + o), m1 = _mm512_loadu_ps(mu + st + o),
                  m2 = _mm512_loadu_ps(mu + 2 * st + o);
     __m512 s0 = _mm512_setzero_ps(), s1a = s0, s1b = s0, s1c = s0, s2a = s0, s2b = s0, s2c = s0;
-    for (int g = 0; g < 4; ++g) {
+    for (int g = 0; g < G; ++g) {
       const __m512 q = _mm512_mul_ps(_mm512_loadu_ps(tt + std::size_t(g) * st + o), inv[g]);
       const __m512 d0 = _mm512_sub_ps(rv[g][0], m0), d1 = _mm512_sub_ps(rv[g][1], m1),
                    d2 = _mm512_sub_ps(rv[g][2], m2);
@@ -247,38 +259,6 @@ inline double group_pass4_avx512(std::size_t st, const float* sl, const float* m
     acc(a2 + 2 * st + o, s2c);
   }
   return ll;
-}
-
-// Eq. (8)-(11) for one prediction over st (padded) components: t = a + b (the log
-// conditional weights, Eq. 9-10, from two table rows), then sum_m W_m mu_m / sum_m W_m for the
-// three colours. Vectors whose t are all below the maximum by more than `margin` add less than
-// float resolution and are skipped. tt: st floats of scratch.
-inline void conditional_colour16(std::size_t st, const float* a, const float* b, const float* mu,
-                                 float* tt, float margin, float out[3]) {
-  const std::size_t chunks = st / 16;
-  __m512 mxv = _mm512_set1_ps(-INFINITY);
-  for (std::size_t j = 0; j < chunks; ++j) {
-    const __m512 x = _mm512_add_ps(_mm512_loadu_ps(a + j * 16), _mm512_loadu_ps(b + j * 16));
-    _mm512_storeu_ps(tt + j * 16, x);
-    mxv = _mm512_max_ps(mxv, x);
-  }
-  const float mx = hmax16(mxv);
-  const __m512 mxb = _mm512_set1_ps(mx), thr = _mm512_set1_ps(mx - margin);
-  __m512 sum = _mm512_setzero_ps(), c0 = sum, c1 = sum, c2 = sum;
-  for (std::size_t j = 0; j < chunks; ++j) {
-    const std::size_t o = j * 16;
-    const __m512 x = _mm512_loadu_ps(tt + o);
-    if (!_mm512_cmp_ps_mask(x, thr, _CMP_GE_OQ)) continue;
-    const __m512 w = fast_exp16(_mm512_sub_ps(x, mxb));
-    sum = _mm512_add_ps(sum, w);
-    c0 = _mm512_fmadd_ps(w, _mm512_loadu_ps(mu + o), c0);
-    c1 = _mm512_fmadd_ps(w, _mm512_loadu_ps(mu + st + o), c1);
-    c2 = _mm512_fmadd_ps(w, _mm512_loadu_ps(mu + 2 * st + o), c2);
-  }
-  const float inv = 1.0f / hsum16(sum);
-  out[0] = hsum16(c0) * inv;
-  out[1] = hsum16(c1) * inv;
-  out[2] = hsum16(c2) * inv;
 }
 
 }  // namespace btfgmm::detail
