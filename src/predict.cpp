@@ -145,6 +145,19 @@ void exp_in_place(float* x, std::size_t n) {
 #endif
 }
 
+// sums += (sum e, sum e mu_0, sum e mu_1, sum e mu_2) over 16 components (mu: 3 rows of st).
+inline void add_weighted(const float* e, const float* mu, std::size_t st, float sums[4]) {
+  for (std::size_t j = 0; j < 16; ++j) {
+    sums[0] += e[j];
+    for (std::size_t c = 0; c < 3; ++c) sums[c + 1] += e[j] * mu[c * st + j];
+  }
+}
+
+// The colour of Eq. (8): sum e mu / sum e.
+inline void weighted_mean(const float sums[4], float out[3]) {
+  for (int c = 0; c < 3; ++c) out[c] = sums[c + 1] / sums[0];
+}
+
 // One pixel in the factored form: e_k = ex[k] * ey[k] over the live vectors (offsets o =
 // live[i] * 16 into ex and mu; ey compact, 16 a live vector), and the colour of Eq. (8),
 // sum e mu / sum e. mu: 3 rows of st.
@@ -165,21 +178,13 @@ void factored_colour(std::size_t n_live, const std::uint32_t* live, const float*
   out[1] = detail::hsum16(c1) * inv;
   out[2] = detail::hsum16(c2) * inv;
 #else
-  float sum = 0, c0 = 0, c1 = 0, c2 = 0;
+  float e[16], sums[4] = {0, 0, 0, 0};
   for (std::size_t i = 0; i < n_live; ++i) {
     const std::size_t o = std::size_t(live[i]) * 16;
-#pragma omp simd reduction(+ : sum, c0, c1, c2)
-    for (std::size_t j = 0; j < 16; ++j) {
-      const float e = ex[o + j] * ey[i * 16 + j];
-      sum += e;
-      c0 += e * mu[o + j];
-      c1 += e * mu[st + o + j];
-      c2 += e * mu[2 * st + o + j];
-    }
+    for (std::size_t j = 0; j < 16; ++j) e[j] = ex[o + j] * ey[i * 16 + j];
+    add_weighted(e, mu + o, st, sums);
   }
-  out[0] = c0 / sum;
-  out[1] = c1 / sum;
-  out[2] = c2 / sum;
+  weighted_mean(sums, out);
 #endif
 }
 
@@ -228,20 +233,10 @@ void additive_colour(std::size_t n_live, const std::uint32_t* live, const float*
   }
   for (std::size_t j = 0; j < n_live * 16; ++j) t[j] -= mx;
   exp_in_place(t, n_live * 16);
-  float sum = 0, c0 = 0, c1 = 0, c2 = 0;
-  for (std::size_t i = 0; i < n_live; ++i) {
-    const std::size_t o = std::size_t(live[i]) * 16;
-    for (std::size_t j = 0; j < 16; ++j) {
-      const float e = t[i * 16 + j];
-      sum += e;
-      c0 += e * mu[o + j];
-      c1 += e * mu[st + o + j];
-      c2 += e * mu[2 * st + o + j];
-    }
-  }
-  out[0] = c0 / sum;
-  out[1] = c1 / sum;
-  out[2] = c2 / sum;
+  float sums[4] = {0, 0, 0, 0};
+  for (std::size_t i = 0; i < n_live; ++i)
+    add_weighted(t + i * 16, mu + std::size_t(live[i]) * 16, st, sums);
+  weighted_mean(sums, out);
 }
 
 }  // namespace

@@ -50,28 +50,6 @@ constexpr int kMaxBlock = int(ModelEvaluator::kGroup);
 // before the points still left take the exact look-up.
 constexpr int kAffineRounds = 4;
 
-// 2^x for x <= 0, vectorisable: x = n + f, |f| <= 1/2, 2^f by Cephes' exp2f polynomial
-// (relative error ~2e-7), 2^n added to the exponent bits. Inputs below -126 give 2^-126.
-inline float exp2_nonpositive(float x) {
-  x = x < -126.0f ? -126.0f : x;
-  const float shifter = 12582912.0f;  // 1.5 * 2^23: adding it rounds to an integer
-  const float n = (x + shifter) - shifter;
-  const float f = x - n;
-  float p = 1.535336188319500e-4f;
-  p = p * f + 1.339887440266574e-3f;
-  p = p * f + 9.618437357674640e-3f;
-  p = p * f + 5.550332471162809e-2f;
-  p = p * f + 2.402264791363012e-1f;
-  p = p * f + 6.931472028550421e-1f;
-  p = p * f + 1.0f;
-  std::int32_t bits;
-  std::memcpy(&bits, &p, sizeof bits);
-  bits += static_cast<std::int32_t>(n) * (1 << 23);
-  float y;
-  std::memcpy(&y, &bits, sizeof y);
-  return y;
-}
-
 // atan2(y, x) for x >= 0 (a result in [-pi/2, pi/2]), vectorisable: the ratio of the
 // smaller to the larger magnitude in [0, 1], reduced by tan(pi/8) and Cephes' atanf
 // polynomial (absolute error ~2e-7 radians; tests/test_render.cpp measures it).
@@ -102,7 +80,8 @@ inline Vf splat(float v) {
   return Vf{} + v;
 }
 
-// exp2_nonpositive on 16 lanes.
+// 2^x for x <= 0 on 16 lanes: x = n + f, |f| <= 1/2, 2^f by Cephes' exp2f polynomial
+// (relative error ~2e-7), 2^n added to the exponent bits. Inputs below -126 give 2^-126.
 inline Vf exp2v(Vf x) {
   x = x < splat(-126.0f) ? splat(-126.0f) : x;
   const Vf shifter = splat(12582912.0f);
