@@ -228,10 +228,14 @@ TEST(Em, GridPathWithSkippingEqualsReferencePath) {
       worst);
 }
 
+// The samples of an 8 x 8 small_btf with 7 lights and 7 views.
+SampleSet ring_samples() {
+  return make_sample_set(small_btf(8, 8, DirectionSet::parse("rings:0/1,40/6"),
+                                   DirectionSet::parse("rings:0/1,40/6")));
+}
+
 TEST(Em, FinalLogLikelihoodIsThatOfTheReturnedParameters) {
-  const Btf btf =
-      small_btf(8, 8, DirectionSet::parse("rings:0/1,40/6"), DirectionSet::parse("rings:0/1,40/6"));
-  const SampleSet s = make_sample_set(btf);
+  const SampleSet s = ring_samples();
   ProductMixture a = initial_mixture(s, 40, 9), b = a;
   EmConfig c;
   c.max_iterations = 3;
@@ -247,9 +251,7 @@ TEST(Em, FinalLogLikelihoodIsThatOfTheReturnedParameters) {
 }
 
 TEST(Em, SameModelWithOneOrTwoThreads) {
-  const Btf btf =
-      small_btf(8, 8, DirectionSet::parse("rings:0/1,40/6"), DirectionSet::parse("rings:0/1,40/6"));
-  const SampleSet s = make_sample_set(btf);
+  const SampleSet s = ring_samples();
   ProductMixture a = initial_mixture(s, 12, 9), b = a;
   EmConfig c;
   c.max_iterations = 5;
@@ -348,23 +350,29 @@ TEST(Predict, EqualsHandComputedTwoComponentModel) {
   EXPECT_THROW(predict(m, Query{0, 0, {NAN, 0}, {0, 0}}), Error);
 }
 
-TEST(Predict, DecodeEqualsPointPredictions) {
-  const BtfModel m = two_component_model();
+// decode() of the model's 5 x 5 directions on a 6 x 5 tile against predict() at every pixel
+// of every step-th light and view.
+void expect_decode_equals_predict(const BtfModel& m, std::size_t step, double tolerance) {
   const Btf d = decode(m, m.lights, m.views, 6, 5);
   std::vector<Query> queries;
-  for (std::size_t l = 0; l < 5; ++l)
-    for (std::size_t v = 0; v < 5; ++v)
+  for (std::size_t l = 0; l < 5; l += step)
+    for (std::size_t v = 0; v < 5; v += step)
       for (int y = 0; y < 5; ++y)
         for (int x = 0; x < 6; ++x)
           queries.push_back({double(x), double(y), m.lights[l], m.views[v]});
   std::vector<float> rgb(queries.size() * 3);
   predict(m, queries, rgb);
   std::size_t i = 0;
-  for (std::size_t l = 0; l < 5; ++l)
-    for (std::size_t v = 0; v < 5; ++v)
+  for (std::size_t l = 0; l < 5; l += step)
+    for (std::size_t v = 0; v < 5; v += step)
       for (int y = 0; y < 5; ++y)
         for (int x = 0; x < 6; ++x, ++i)
-          for (int c = 0; c < 3; ++c) EXPECT_NEAR(d.at(l, v, x, y, c), rgb[i * 3 + c], 1e-3);
+          for (int c = 0; c < 3; ++c)
+            EXPECT_NEAR(d.at(l, v, x, y, c), rgb[i * 3 + std::size_t(c)], tolerance);
+}
+
+TEST(Predict, DecodeEqualsPointPredictions) {
+  expect_decode_equals_predict(two_component_model(), 1, 1e-3);
 }
 
 // Components narrow in x and y: over a block of pixels their log weights span far more than
@@ -372,21 +380,7 @@ TEST(Predict, DecodeEqualsPointPredictions) {
 TEST(Predict, DecodeOfNarrowComponentsEqualsPointPredictions) {
   BtfModel m = two_component_model();
   for (auto& v : m.mixture.var) v[0] = v[1] = 0.02;
-  const Btf d = decode(m, m.lights, m.views, 6, 5);
-  std::vector<Query> queries;
-  for (std::size_t l = 0; l < 5; l += 2)
-    for (std::size_t v = 0; v < 5; v += 2)
-      for (int y = 0; y < 5; ++y)
-        for (int x = 0; x < 6; ++x)
-          queries.push_back({double(x), double(y), m.lights[l], m.views[v]});
-  std::vector<float> rgb(queries.size() * 3);
-  predict(m, queries, rgb);
-  std::size_t i = 0;
-  for (std::size_t l = 0; l < 5; l += 2)
-    for (std::size_t v = 0; v < 5; v += 2)
-      for (int y = 0; y < 5; ++y)
-        for (int x = 0; x < 6; ++x, ++i)
-          for (int c = 0; c < 3; ++c) EXPECT_NEAR(d.at(l, v, x, y, c), rgb[i * 3 + c], 2e-3);
+  expect_decode_equals_predict(m, 2, 2e-3);
 }
 
 TEST(ModelFile, RoundTripIsBitExact) {
