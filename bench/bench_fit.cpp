@@ -26,6 +26,7 @@
 #include <ctime>
 #include <string>
 
+#include "bench_clock.hpp"
 #include "btfgmm/btfgmm.hpp"
 #include "btfgmm/model.hpp"
 
@@ -62,17 +63,8 @@ btfgmm::SampleSet samples(const Options& o) {
   return btfgmm::make_sample_set(tile);
 }
 
-double now() {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
-}
-
-// CPU time of the whole process (all threads): on a machine shared with other work, the
-// figure that does not count the time spent waiting for a core.
-double cpu_now() {
-  timespec t{};
-  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &t);
-  return double(t.tv_sec) + 1e-9 * double(t.tv_nsec);
-}
+using bench::cpu_now;
+using bench::now;
 
 Result run_ours(const Options& o) {
   const btfgmm::SampleSet s = samples(o);

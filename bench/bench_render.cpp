@@ -24,23 +24,15 @@
 #include <ctime>
 #include <string>
 
+#include "bench_clock.hpp"
 #include "btfgmm/btfgmm.hpp"
 #include "btfgmm/model.hpp"
 #include "btfgmm/render.hpp"
 
 namespace {
 
-double now() {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
-}
-
-// CPU time of the whole process (all threads): on a machine shared with other work, the
-// figure that does not count the time spent waiting for a core.
-double cpu_now() {
-  timespec t{};
-  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &t);
-  return double(t.tv_sec) + 1e-9 * double(t.tv_nsec);
-}
+using bench::cpu_now;
+using bench::now;
 
 struct Options {
   std::string model;

@@ -306,7 +306,10 @@ DirectionInterpolator::Weights FastDirectionInterpolator::weights(const Vec3& v,
 }
 
 // The arithmetic of DirectionInterpolator::weights_at over the triangles near the query
-// (every triangle that could contain it): the same weights, bit for bit. A query well inside
+// (every triangle that could contain it): the same weights, bit for bit. Repeated here rather
+// than called: this file is built with other floating-point flags, and calling the other
+// file's normalisation instead changed the last bit of some weights (the test asserts equal
+// bits). A query well inside
 // the hinted triangle (every barycentric weight above 1e-4) lies in no other triangle: that
 // triangle is the one the scan would find.
 DirectionInterpolator::Weights FastDirectionInterpolator::weights_at(double qx, double qy,
