@@ -28,7 +28,11 @@
 
 #include "bench_clock.hpp"
 #include "btfgmm/btfgmm.hpp"
-#include "btfgmm/model.hpp"
+#include "btfgmm/model/em.hpp"
+#include "btfgmm/model/model.hpp"
+#include "btfgmm/model/model_file.hpp"
+#include "btfgmm/model/predict.hpp"
+#include "btfgmm/model/samples.hpp"
 
 namespace {
 

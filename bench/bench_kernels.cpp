@@ -12,9 +12,12 @@
 #include <vector>
 
 #include "btfgmm/btfgmm.hpp"
-#include "btfgmm/model.hpp"
-#include "btfgmm/render.hpp"
-#include "fast_exp.hpp"
+#include "btfgmm/model/em.hpp"
+#include "btfgmm/model/model.hpp"
+#include "btfgmm/model/predict.hpp"
+#include "btfgmm/model/samples.hpp"
+#include "btfgmm/render/render.hpp"
+#include "core/fast_exp.hpp"
 
 namespace {
 

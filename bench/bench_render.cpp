@@ -26,8 +26,10 @@
 
 #include "bench_clock.hpp"
 #include "btfgmm/btfgmm.hpp"
-#include "btfgmm/model.hpp"
-#include "btfgmm/render.hpp"
+#include "btfgmm/model/fit.hpp"
+#include "btfgmm/model/model.hpp"
+#include "btfgmm/model/model_file.hpp"
+#include "btfgmm/render/render.hpp"
 
 namespace {
 

@@ -18,7 +18,8 @@
 #include <vector>
 
 #include "btfgmm/btfgmm.hpp"
-#include "btfgmm/model.hpp"
+#include "btfgmm/core/text.hpp"
+#include "btfgmm/model/model.hpp"
 
 namespace btfgmm::cli {
 
@@ -89,23 +90,6 @@ inline std::pair<int, int> parse_size(const std::string& text) {
   return {w, h};
 }
 
-inline std::string human_bytes(double b) {
-  const char* unit[] = {"B", "KiB", "MiB", "GiB", "TiB"};
-  int u = 0;
-  while (b >= 1024.0 && u < 4) {
-    b /= 1024.0;
-    ++u;
-  }
-  return u == 0 ? fmt::format("{:.0f} B", b) : fmt::format("{:.1f} {}", b, unit[u]);
-}
-
-inline std::string human_seconds(double s) {
-  if (s < 60) return fmt::format("{:.1f} s", s);
-  const long t = std::lround(s);
-  if (t < 3600) return fmt::format("{}:{:02d}", t / 60, t % 60);
-  return fmt::format("{}:{:02d}:{:02d}", t / 3600, (t / 60) % 60, t % 60);
-}
-
 // That a file can be created in the folder `dir` (a probe file, removed at once), so a
 // read-only file system or a folder such as /proc is reported before any work is done.
 inline void check_writable_folder(const std::filesystem::path& dir,
@@ -173,11 +157,6 @@ inline void check_output_file(const std::filesystem::path& out, bool overwrite) 
   check_writable_folder(dir, out);
 }
 
-using Clock = std::chrono::steady_clock;
-inline double since(Clock::time_point t) {
-  return std::chrono::duration<double>(Clock::now() - t).count();
-}
-
 inline std::string describe_set(const btfgmm::DirectionSet& s) {
   if (s == btfgmm::DirectionSet::ubo81()) return "81 (the UBO2003/UTIA set)";
   double lo = 90, hi = 0;
@@ -197,25 +176,11 @@ inline nlohmann::json set_json(const btfgmm::DirectionSet& s) {
   return a;
 }
 
-inline std::string format_name(btfgmm::ImageFormat f) {
-  switch (f) {
-    case btfgmm::ImageFormat::kPng:
-      return "PNG";
-    case btfgmm::ImageFormat::kJpeg:
-      return "JPEG";
-    case btfgmm::ImageFormat::kExr:
-      return "OpenEXR";
-  }
-  return "?";
-}
-
 // A path names a model file when it is a regular file that is not a zip.
 inline bool is_model_path(const std::filesystem::path& p) {
   std::error_code ec;
   if (!std::filesystem::is_regular_file(p, ec)) return false;
-  std::string ext = p.extension().string();
-  for (char& c : ext) c = char(std::tolower(static_cast<unsigned char>(c)));
-  return ext != ".zip";
+  return btfgmm::lower(p.extension().string()) != ".zip";
 }
 
 // How a model was fitted, for --json output (info, compare).

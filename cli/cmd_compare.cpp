@@ -9,9 +9,11 @@
 #include <optional>
 
 #include "btfgmm/btfgmm.hpp"
-#include "btfgmm/metrics.hpp"
-#include "btfgmm/model.hpp"
-#include "btfgmm/report.hpp"
+#include "btfgmm/core/text.hpp"
+#include "btfgmm/measure/metrics.hpp"
+#include "btfgmm/model/model.hpp"
+#include "btfgmm/model/model_file.hpp"
+#include "btfgmm/report/report.hpp"
 #include "cli_util.hpp"
 #include "commands.hpp"
 
@@ -192,7 +194,7 @@ void run_compare(const CompareOptions& o) {
     results.push_back(compare_model(*tile_data, m, path, std::uint64_t(fs::file_size(path)), co));
     if (!o.quiet)
       fmt::print(stderr, "compared {} with its {}x{} tile of {} in {}\n", path, tile.width,
-                 tile.height, o.btf, human_seconds(since(t0)));
+                 tile.height, o.btf, human_seconds(seconds_since(t0)));
   }
 
   nlohmann::json all = nlohmann::json::array();

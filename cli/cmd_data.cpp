@@ -6,7 +6,9 @@
 #include <memory>
 
 #include "btfgmm/btfgmm.hpp"
-#include "btfgmm/model.hpp"
+#include "btfgmm/core/text.hpp"
+#include "btfgmm/model/model.hpp"
+#include "btfgmm/model/model_file.hpp"
 #include "cli_util.hpp"
 #include "commands.hpp"
 
@@ -42,10 +44,10 @@ void run_generate(const GenerateOptions& o) {
   fmt::print(stderr, "generating {} ({}x{} pixels, {} lights x {} views, seed {})...\n", c.material,
              c.size, c.size, c.lights.size(), c.views.size(), c.seed);
   const btfgmm::Btf btf = btfgmm::generate(c);
-  const double rendered = since(t0);
+  const double rendered = seconds_since(t0);
   btfgmm::write_utia(btf, o.out);
   fmt::print(stderr, "wrote {} images to {} (rendered in {:.1f} s, written in {:.1f} s)\n",
-             btf.image_count(), o.out, rendered, since(t0) - rendered);
+             btf.image_count(), o.out, rendered, seconds_since(t0) - rendered);
 }
 
 // ---- info --------------------------------------------------------------------------------
@@ -66,7 +68,7 @@ void info_btf(const std::string& path, bool json) {
     j["width"] = i.width;
     j["height"] = i.height;
     j["bit_depth"] = btfgmm::to_string(i.format);
-    j["image_format"] = format_name(i.image_format);
+    j["image_format"] = btfgmm::to_string(i.image_format);
     j["file_bytes"] = i.file_bytes;
     j["raw_bytes_8bit"] = std::uint64_t(raw8);
     j["ignored_files"] = i.ignored_files;
@@ -81,7 +83,8 @@ void info_btf(const std::string& path, bool json) {
   fmt::print("  views        {}\n", describe_set(i.views));
   fmt::print("  images       {} ({} x {})\n", images, i.lights.size(), i.views.size());
   fmt::print("  image size   {} x {} pixels, RGB\n", i.width, i.height);
-  fmt::print("  bit depth    {} ({})\n", btfgmm::to_string(i.format), format_name(i.image_format));
+  fmt::print("  bit depth    {} ({})\n", btfgmm::to_string(i.format),
+             btfgmm::to_string(i.image_format));
   fmt::print("  bytes        {} in files; {} as 8-bit RGB (W*H*ni*nv*3 = {:.0f})\n",
              human_bytes(double(i.file_bytes)), human_bytes(raw8), raw8);
   if (i.ignored_files > 0)

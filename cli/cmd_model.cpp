@@ -10,7 +10,11 @@
 #include <memory>
 
 #include "btfgmm/btfgmm.hpp"
-#include "btfgmm/model.hpp"
+#include "btfgmm/core/text.hpp"
+#include "btfgmm/model/fit.hpp"
+#include "btfgmm/model/model.hpp"
+#include "btfgmm/model/model_file.hpp"
+#include "btfgmm/model/predict.hpp"
 #include "cli_util.hpp"
 #include "commands.hpp"
 #include "tile_option.hpp"
@@ -80,7 +84,7 @@ void run_fit(FitOptions o) {
     fmt::print(stderr,
                "loaded {}x{} pixels at ({}, {}) x {} lights x {} views = {} samples in {}\n",
                btf.width(), btf.height(), btf.origin().x, btf.origin().y, btf.lights().size(),
-               btf.views().size(), n, human_seconds(since(t0)));
+               btf.views().size(), n, human_seconds(seconds_since(t0)));
   btfgmm::FitConfig c;
   c.components = o.components;
   c.seed = o.seed;
@@ -181,7 +185,7 @@ void run_decode(const DecodeOptions& o) {
     btfgmm::write_utia(part, o.out);
   }
   fmt::print(stderr, "wrote {} images of {}x{} pixels to {} in {}\n", lights.size() * views.size(),
-             w, h, o.out, human_seconds(since(t0)));
+             w, h, o.out, human_seconds(seconds_since(t0)));
 }
 
 // ---- eval --------------------------------------------------------------------------------

@@ -9,12 +9,14 @@
 #include <optional>
 
 #include "btfgmm/btfgmm.hpp"
-#include "btfgmm/model.hpp"
-#include "btfgmm/render.hpp"
-#include "btfgmm/tile.hpp"
+#include "btfgmm/core/limits.hpp"
+#include "btfgmm/core/text.hpp"
+#include "btfgmm/measure/tile.hpp"
+#include "btfgmm/model/model.hpp"
+#include "btfgmm/model/model_file.hpp"
+#include "btfgmm/render/render.hpp"
 #include "cli_util.hpp"
 #include "commands.hpp"
-#include "limits.hpp"
 #include "tile_option.hpp"
 
 namespace btfgmm::cli {
@@ -137,7 +139,7 @@ void run_render(const RenderOptions& o) {
   } else {
     data = load_data(o.input, o.tile, {}, o.quiet);
   }
-  const double load_seconds = since(t0);
+  const double load_seconds = seconds_since(t0);
   const int tw = model ? model->width : data->width(), th = model ? model->height : data->height();
   const btfgmm::SampleFormat format = model ? model->format : data->format();
   const btfgmm::SurfaceBuffer surface = btfgmm::rasterize(mesh, camera, light, s, tw, th);
@@ -224,7 +226,7 @@ void run_tile(const TileOptions& o) {
     j["rms_levels"] = r.seam.rms_levels;
     j["candidates"] = r.candidates;
     j["images"] = r.images;
-    j["seconds"] = since(t0);
+    j["seconds"] = seconds_since(t0);
     std::cout << j.dump() << "\n";
     return;
   }
@@ -234,7 +236,7 @@ void run_tile(const TileOptions& o) {
              "continues, 1 = as different as neighbouring pixels), {:.2f} levels RMS; {} "
              "candidates on {} images in {}\nfit it with: btfgmm fit {} --tile {},{},{},{} ...\n",
              r.seam.total, r.seam.left_right, r.seam.top_bottom, r.seam.rms_levels, r.candidates,
-             r.images, human_seconds(since(t0)), o.input, t.x, t.y, t.width, t.height);
+             r.images, human_seconds(seconds_since(t0)), o.input, t.x, t.y, t.width, t.height);
 }
 
 }  // namespace

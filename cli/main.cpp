@@ -4,7 +4,7 @@
 #include <fmt/format.h>
 #include <CLI/CLI.hpp>
 
-#include "btfgmm/error.hpp"
+#include "btfgmm/core/error.hpp"
 #include "commands.hpp"
 
 int main(int argc, char** argv) {

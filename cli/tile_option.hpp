@@ -6,8 +6,9 @@
 
 #include <string>
 
-#include "btfgmm/dataset.hpp"
-#include "btfgmm/tile.hpp"
+#include "btfgmm/core/text.hpp"
+#include "btfgmm/io/dataset.hpp"
+#include "btfgmm/measure/tile.hpp"
 #include "cli_util.hpp"
 
 namespace btfgmm::cli {
@@ -29,7 +30,7 @@ inline btfgmm::Tile tile_option(const btfgmm::BtfSource& src, const std::string&
                "tile {},{},{},{}: seam error {:.3f} (left-right {:.3f}, top-bottom {:.3f}; 0 = "
                "seamless), chosen among {} on {} images in {}\n",
                r.tile.x, r.tile.y, r.tile.width, r.tile.height, r.seam.total, r.seam.left_right,
-               r.seam.top_bottom, r.candidates, r.images, human_seconds(since(t0)));
+               r.seam.top_bottom, r.candidates, r.images, human_seconds(seconds_since(t0)));
   return r.tile;
 }
 

@@ -9,8 +9,8 @@
 #include <fstream>
 #include <iostream>
 
-#include "btfgmm/error.hpp"
-#include "btfgmm/mixture.hpp"
+#include "btfgmm/core/error.hpp"
+#include "btfgmm/model/mixture.hpp"
 
 int main(int argc, char** argv) {
   if (argc != 2) {

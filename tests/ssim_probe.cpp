@@ -8,8 +8,8 @@
 #include <fstream>
 #include <vector>
 
-#include "btfgmm/error.hpp"
-#include "btfgmm/metrics.hpp"
+#include "btfgmm/core/error.hpp"
+#include "btfgmm/measure/metrics.hpp"
 
 int main(int argc, char** argv) {
   if (argc != 2) {

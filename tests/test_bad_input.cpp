@@ -27,13 +27,14 @@
 #include <zip.h>
 #include <zlib.h>
 
-#include "btfgmm/btf.hpp"
-#include "btfgmm/dataset.hpp"
-#include "btfgmm/directions.hpp"
-#include "btfgmm/error.hpp"
-#include "btfgmm/image.hpp"
-#include "btfgmm/model.hpp"
-#include "limits.hpp"
+#include "btfgmm/core/btf.hpp"
+#include "btfgmm/core/directions.hpp"
+#include "btfgmm/core/error.hpp"
+#include "btfgmm/core/limits.hpp"
+#include "btfgmm/io/dataset.hpp"
+#include "btfgmm/io/image.hpp"
+#include "btfgmm/model/model.hpp"
+#include "btfgmm/model/model_file.hpp"
 
 #include "test_util.hpp"
 

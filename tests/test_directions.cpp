@@ -6,8 +6,9 @@
 #include <random>
 #include <set>
 
-#include "btfgmm/directions.hpp"
-#include "btfgmm/error.hpp"
+#include "btfgmm/core/directions.hpp"
+#include "btfgmm/core/error.hpp"
+#include "btfgmm/core/interpolation.hpp"
 
 namespace btfgmm {
 namespace {

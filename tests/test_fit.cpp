@@ -6,8 +6,11 @@
 #include <cstdio>
 
 #include "btfgmm/btfgmm.hpp"
-#include "btfgmm/error.hpp"
-#include "btfgmm/model.hpp"
+#include "btfgmm/core/error.hpp"
+#include "btfgmm/model/fit.hpp"
+#include "btfgmm/model/model.hpp"
+#include "btfgmm/model/model_file.hpp"
+#include "btfgmm/model/predict.hpp"
 
 namespace btfgmm {
 namespace {

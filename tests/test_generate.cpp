@@ -9,9 +9,9 @@
 #include <string>
 #include <vector>
 
-#include "btfgmm/btf.hpp"
-#include "btfgmm/error.hpp"
-#include "btfgmm/generate.hpp"
+#include "btfgmm/core/btf.hpp"
+#include "btfgmm/core/error.hpp"
+#include "btfgmm/synth/generate.hpp"
 
 namespace btfgmm {
 namespace {

@@ -19,11 +19,11 @@
 #include <string>
 #include <vector>
 
-#include "btfgmm/btf.hpp"
-#include "btfgmm/dataset.hpp"
-#include "btfgmm/directions.hpp"
-#include "btfgmm/error.hpp"
-#include "btfgmm/image.hpp"
+#include "btfgmm/core/btf.hpp"
+#include "btfgmm/core/directions.hpp"
+#include "btfgmm/core/error.hpp"
+#include "btfgmm/io/dataset.hpp"
+#include "btfgmm/io/image.hpp"
 
 namespace fs = std::filesystem;
 using btfgmm::Btf;

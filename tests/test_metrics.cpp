@@ -16,9 +16,12 @@
 #include <unistd.h>
 
 #include "btfgmm/btfgmm.hpp"
-#include "btfgmm/metrics.hpp"
-#include "btfgmm/model.hpp"
-#include "btfgmm/report.hpp"
+#include "btfgmm/measure/metrics.hpp"
+#include "btfgmm/model/fit.hpp"
+#include "btfgmm/model/model.hpp"
+#include "btfgmm/model/model_file.hpp"
+#include "btfgmm/model/predict.hpp"
+#include "btfgmm/report/report.hpp"
 
 namespace btfgmm {
 namespace {

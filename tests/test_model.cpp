@@ -10,10 +10,14 @@
 #include <random>
 
 #include "btfgmm/btfgmm.hpp"
-#include "btfgmm/model.hpp"
-#include "fast_exp.hpp"
+#include "btfgmm/model/em.hpp"
+#include "btfgmm/model/model.hpp"
+#include "btfgmm/model/model_file.hpp"
+#include "btfgmm/model/predict.hpp"
+#include "btfgmm/model/samples.hpp"
+#include "core/fast_exp.hpp"
 #if defined(__AVX512F__)
-#include "em_avx512.hpp"
+#include "model/em_avx512.hpp"
 #endif
 
 #include <zlib.h>

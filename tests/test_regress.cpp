@@ -10,10 +10,11 @@
 #include <string>
 #include <vector>
 
-#include "btfgmm/dataset.hpp"
-#include "btfgmm/error.hpp"
-#include "btfgmm/image.hpp"
-#include "btfgmm/model.hpp"
+#include "btfgmm/core/error.hpp"
+#include "btfgmm/io/dataset.hpp"
+#include "btfgmm/io/image.hpp"
+#include "btfgmm/model/model.hpp"
+#include "btfgmm/model/model_file.hpp"
 
 #include "test_util.hpp"
 

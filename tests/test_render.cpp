@@ -18,8 +18,11 @@
 #include <string>
 
 #include "btfgmm/btfgmm.hpp"
-#include "btfgmm/model.hpp"
-#include "btfgmm/render.hpp"
+#include "btfgmm/core/interpolation.hpp"
+#include "btfgmm/model/fit.hpp"
+#include "btfgmm/model/model.hpp"
+#include "btfgmm/model/predict.hpp"
+#include "btfgmm/render/render.hpp"
 
 namespace {
 

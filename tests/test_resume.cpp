@@ -13,8 +13,10 @@
 #include <thread>
 
 #include "btfgmm/btfgmm.hpp"
-#include "btfgmm/checkpoint.hpp"
-#include "btfgmm/model.hpp"
+#include "btfgmm/model/checkpoint.hpp"
+#include "btfgmm/model/em.hpp"
+#include "btfgmm/model/model.hpp"
+#include "btfgmm/model/samples.hpp"
 
 namespace btfgmm {
 namespace {

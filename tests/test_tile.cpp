@@ -6,7 +6,7 @@
 #include <string>
 
 #include "btfgmm/btfgmm.hpp"
-#include "btfgmm/tile.hpp"
+#include "btfgmm/measure/tile.hpp"
 
 namespace {
 

@@ -6,7 +6,7 @@
 #include <exception>
 #include <string>
 
-#include "btfgmm/error.hpp"
+#include "btfgmm/core/error.hpp"
 
 namespace btfgmm::test {
 

@@ -1,11 +1,34 @@
-// btfgmm: a BTF compressed into a 9-D Gaussian mixture of product components.
-// The umbrella header; see each header for its part.
+// btfgmm: measured material appearance (BTFs) compressed into analytic models, evaluated,
+// measured and rendered. The umbrella header: every public header, layer by layer
+// (docs/ARCHITECTURE.md); see each header for its part.
 #pragma once
 
-#include "btfgmm/btf.hpp"
-#include "btfgmm/checkpoint.hpp"
-#include "btfgmm/dataset.hpp"
-#include "btfgmm/directions.hpp"
-#include "btfgmm/error.hpp"
-#include "btfgmm/generate.hpp"
-#include "btfgmm/image.hpp"
+// core: directions, the BTF container, errors, limits, text
+#include "btfgmm/core/btf.hpp"
+#include "btfgmm/core/directions.hpp"
+#include "btfgmm/core/error.hpp"
+#include "btfgmm/core/interpolation.hpp"
+#include "btfgmm/core/limits.hpp"
+#include "btfgmm/core/text.hpp"
+// io: files, images, data sets
+#include "btfgmm/io/dataset.hpp"
+#include "btfgmm/io/files.hpp"
+#include "btfgmm/io/image.hpp"
+// model: the mixture, samples, EM, fitting, prediction, the model file, checkpoints
+#include "btfgmm/model/checkpoint.hpp"
+#include "btfgmm/model/em.hpp"
+#include "btfgmm/model/fit.hpp"
+#include "btfgmm/model/mixture.hpp"
+#include "btfgmm/model/model.hpp"
+#include "btfgmm/model/model_file.hpp"
+#include "btfgmm/model/predict.hpp"
+#include "btfgmm/model/samples.hpp"
+// measure: image quality, seamless tiles
+#include "btfgmm/measure/metrics.hpp"
+#include "btfgmm/measure/tile.hpp"
+// render: meshes, rasterising, evaluators, composing
+#include "btfgmm/render/render.hpp"
+// report: the comparison and its HTML report
+#include "btfgmm/report/report.hpp"
+// synth: generated BTFs
+#include "btfgmm/synth/generate.hpp"

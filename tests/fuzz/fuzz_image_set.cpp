@@ -19,9 +19,9 @@
 #include <string>
 #include <system_error>
 
-#include "btfgmm/dataset.hpp"
-#include "btfgmm/error.hpp"
-#include "btfgmm/image.hpp"
+#include "btfgmm/core/error.hpp"
+#include "btfgmm/io/dataset.hpp"
+#include "btfgmm/io/image.hpp"
 
 namespace {
 

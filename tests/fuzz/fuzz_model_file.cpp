@@ -11,8 +11,10 @@
 #include <span>
 #include <vector>
 
-#include "btfgmm/error.hpp"
-#include "btfgmm/model.hpp"
+#include "btfgmm/core/error.hpp"
+#include "btfgmm/model/model.hpp"
+#include "btfgmm/model/model_file.hpp"
+#include "btfgmm/model/predict.hpp"
 
 namespace {
 

@@ -1,0 +1,82 @@
+// BTF data sets on disk: discovering the images of a folder or a Bonn zip, reading a tile,
+// writing the UTIA layout.
+//
+// Names understood (angles in degrees, whole or with a fraction such as tl023.5):
+//   UTIA, nested:  tv000_pv000/tl000_pl000_tv000_pv000.png   (also .jpg, .exr)
+//   UTIA, flat:    tl000_pl000_tv000_pv000.png
+//   Bonn UBO2003:  00008 tl000 pl000 tv030 pv030.jpg  (or with '_' separators), in folders
+//                  or inside the material's .zip (read in place)
+// The light set is every distinct (tl, pl), the view set every distinct (tv, pv), each sorted
+// by theta then phi (for the 81-direction sets this is the UBO2003 order). Every (light,
+// view) pair must have exactly one image, all of one size and kind.
+#pragma once
+
+#include <cstdint>
+#include <filesystem>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "btfgmm/core/btf.hpp"
+#include "btfgmm/io/image.hpp"
+
+namespace btfgmm {
+
+enum class Layout {
+  kUtiaNested,  // one folder per view
+  kUtiaFlat,    // all images in one folder
+  kBonnFolder,  // Bonn names (leading image index), unpacked
+  kBonnZip,     // Bonn names inside a .zip
+};
+std::string to_string(Layout l);
+
+// The angles a file name carries.
+struct ParsedName {
+  Direction light, view;
+  std::optional<long> index;  // the Bonn image index, when present
+};
+// Parse the file name part (no folders) of an image name. Throws Error(kFormat) naming the
+// file and the expected pattern.
+ParsedName parse_image_name(const std::string& file_name);
+// The UTIA name of an image: tl000_pl000_tv000_pv000 (angles with one decimal if fractional).
+std::string utia_image_stem(const Direction& light, const Direction& view);
+
+struct BtfInfo {
+  std::filesystem::path path;
+  Layout layout = Layout::kUtiaNested;
+  DirectionSet lights, views;
+  int width = 0, height = 0;
+  SampleFormat format = SampleFormat::kLdr8;
+  ImageFormat image_format = ImageFormat::kPng;
+  std::uint64_t file_bytes = 0;     // bytes of the image files (compressed, on disk or in zip)
+  std::uint64_t ignored_files = 0;  // files that are not images (e.g. a README), skipped
+};
+
+class BtfSource {
+ public:
+  // Discover the images at `path` (a folder or a .zip), check that every (light, view) pair
+  // has one image and that all images have one size and kind (reading headers only).
+  // Throws Error naming the file(s) at fault and what is expected.
+  static BtfSource open(const std::filesystem::path& path);
+
+  const BtfInfo& info() const { return info_; }
+  // The name of the image of a pair, relative to the folder (or the zip entry name).
+  const std::string& image_name(std::size_t light, std::size_t view) const;
+
+  // Read a tile of every image (an empty tile reads the whole image). Only the tile is kept
+  // in memory (one decoded image per thread at a time). Throws Error(kArgument) if the tile
+  // is not inside the image, Error(kFormat/kIo) if an image cannot be read.
+  Btf load(const Tile& tile = {}) const;
+
+ private:
+  BtfInfo info_;
+  std::vector<std::string> names_;  // light-major, as Btf::image_index
+};
+
+// Write a BTF in the nested UTIA layout under `folder` (created if needed):
+// tv000_pv000/tl000_pl000_tv000_pv000.png for 8-bit data, .exr for HDR (or as forced by
+// `format`). Each file is written under a temporary name and renamed.
+void write_utia(const Btf& btf, const std::filesystem::path& folder,
+                std::optional<ImageFormat> format = std::nullopt);
+
+}  // namespace btfgmm

@@ -1,0 +1,40 @@
+// Checkpoints of a fit: everything `btfgmm fit --resume` needs to continue a fit that was
+// interrupted (SIGINT, SIGTERM, or killed outright between checkpoints) and end with the
+// model an uninterrupted fit would have written, bit for bit.
+#pragma once
+
+#include <cstdint>
+#include <filesystem>
+#include <string>
+
+#include "btfgmm/core/btf.hpp"
+#include "btfgmm/model/fit.hpp"
+#include "btfgmm/model/model.hpp"
+
+namespace btfgmm {
+
+struct FitCheckpoint {
+  // What was fitted, and how (the command's inputs).
+  std::string input;   // the BTF folder or zip, as given
+  std::string output;  // the model file to write
+  Tile tile;           // the tile as loaded (x, y, width, height)
+  std::uint64_t components = 0;
+  std::uint64_t seed = 0;
+  std::int32_t max_iterations = 0;
+  double epsilon = 0.0;
+  Precision precision = Precision::kF32;
+  std::uint64_t data_fingerprint = 0;  // btf_fingerprint of the tile
+  // Where the fit stands.
+  FitState state;
+};
+
+// A 64-bit FNV-1a hash of a BTF's direction sets, size and values: a resumed fit checks that
+// it sees the same data.
+std::uint64_t btf_fingerprint(const Btf& btf);
+
+// Atomic (temporary file, fsync, rename). Throws Error(kIo).
+void save_checkpoint(const FitCheckpoint& checkpoint, const std::filesystem::path& path);
+// Throws Error(kIo / kFormat) naming the file for a missing, truncated or corrupted one.
+FitCheckpoint load_checkpoint(const std::filesystem::path& path);
+
+}  // namespace btfgmm

@@ -1,0 +1,32 @@
+// EM for the mixture on the sample grid, Eq. (3)-(7) (docs/ALGORITHM.md): the fast path every
+// fit uses. The readable statement of the same equations is mixture.hpp's fit_em_reference.
+#pragma once
+
+#include <functional>
+
+#include "btfgmm/model/mixture.hpp"
+#include "btfgmm/model/samples.hpp"
+
+namespace btfgmm {
+
+// EM, Eq. (3)-(7), on the sample grid (DESIGN §4): per iteration the spatial and angular
+// parts of every component's log density are tabulated once, samples are processed in
+// blocks, responsibilities folded into sufficient statistics at once (no N x M matrix).
+// Statistics are accumulated per fixed chunk of pixels and reduced in a fixed order, so the
+// result does not depend on the number of threads.
+//
+// To resume an interrupted fit, pass the mixture and the EmResult it returned (or that a
+// checkpoint holds): iterations continue from result.iterations + 1, and the outcome is bit
+// for bit that of an uninterrupted fit. `after_iteration` is called after every M-step with
+// the state a resume needs (to write checkpoints).
+using EmStateCallback = std::function<void(const ProductMixture&, const EmResult&)>;
+EmResult fit_em(const SampleSet& samples, ProductMixture& mixture, const EmConfig& config,
+                const EmCallback& progress = {}, const EmResult* resume = nullptr,
+                const EmStateCallback& after_iteration = {});
+
+// L of Eq. (3), the mean log-likelihood of the sample set under `mixture`, by fit_em's E pass
+// (`threads` 0: all cores).
+double mean_log_likelihood(const SampleSet& samples, const ProductMixture& mixture,
+                           int threads = 0);
+
+}  // namespace btfgmm

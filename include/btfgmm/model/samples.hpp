@@ -1,0 +1,62 @@
+// The sample set of the paper (docs/ALGORITHM.md): the mean BRDF, the residual colours on the
+// (pixel, light, view) grid in model units, and the random initialisation of the mixture.
+#pragma once
+
+#include <array>
+#include <cstddef>
+#include <cstdint>
+#include <vector>
+
+#include "btfgmm/core/btf.hpp"
+#include "btfgmm/core/directions.hpp"
+#include "btfgmm/model/mixture.hpp"
+
+namespace btfgmm {
+
+// The size of one unit of each of the nine variables, in the variable's natural measure:
+// pixels for x, y; radians for the onion-slice angles; the colour scale of the data for r,
+// g, b. A variable in model units is its natural value divided by its unit.
+struct VariableScaling {
+  std::array<double, kVariables> unit{1, 1, 1, 1, 1, 1, 1, 1, 1};
+};
+
+// The angular sampling step of a direction set: the median over its directions of the
+// angle to the nearest other direction, in radians (1 for a single direction).
+double angular_sampling_step(const DirectionSet& set);
+
+// The mean BRDF (DESIGN §2.2): for each (light, view), the mean RGB over the tile's pixels,
+// light-major, ni * nv * 3 values.
+std::vector<float> mean_brdf(const Btf& btf);
+
+// The residual sample set (DESIGN §2.3) without N x 9 numbers: the residual colour of every
+// (pixel, light, view) in model units, ordered pixel-major, then light, then view; x, y and
+// the angles are implied by the indices and tabulated once.
+struct SampleSet {
+  int width = 0, height = 0;
+  std::size_t lights = 0, views = 0;
+  VariableScaling scaling;
+  std::vector<float> mean_brdf;                 // ni * nv * 3, in the data's scale
+  std::vector<float> residual;                  // N * 3, model units
+  std::vector<std::array<double, 2>> light_ab;  // (alpha, beta) per light, model units
+  std::vector<std::array<double, 2>> view_ab;   // (alpha, beta) per view, model units
+
+  std::size_t pixels() const { return std::size_t(width) * height; }
+  std::size_t size() const { return pixels() * lights * views; }
+  // The sample index of (pixel, light, view).
+  std::size_t index(std::size_t pixel, std::size_t light, std::size_t view) const {
+    return (pixel * lights + light) * views + view;
+  }
+  // The nine variables of one sample, in model units.
+  std::array<double, kVariables> sample(std::size_t i) const;
+};
+
+// Builds the sample set of a BTF: mean BRDF, scaling, residuals. Throws Error(kFormat) on a
+// non-finite value.
+SampleSet make_sample_set(const Btf& btf);
+
+// Random initialisation (seeded): means at M distinct random samples, variances the
+// variance of each variable over the sample set divided by M^(1/3), equal weights.
+ProductMixture initial_mixture(const SampleSet& samples, std::size_t components,
+                               std::uint64_t seed);
+
+}  // namespace btfgmm

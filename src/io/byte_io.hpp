@@ -1,0 +1,88 @@
+// Little-endian byte writing and bounds-checked reading for the project's binary files (the
+// model file, checkpoints). Whole files are read and written by io/files.hpp.
+#pragma once
+
+#include <fmt/format.h>
+
+#include <Imath/half.h>
+#include <cstdint>
+#include <cstring>
+#include <span>
+#include <string>
+#include <type_traits>
+#include <vector>
+
+#include "btfgmm/core/error.hpp"
+#include "btfgmm/model/model.hpp"
+
+namespace btfgmm::detail {
+
+class ByteWriter {
+ public:
+  template <class T>
+  void put(T v) {
+    static_assert(std::is_arithmetic_v<T>);
+    std::uint8_t b[sizeof(T)];
+    std::memcpy(b, &v, sizeof(T));  // little-endian hosts only (x86-64, AArch64)
+    bytes.insert(bytes.end(), b, b + sizeof(T));
+  }
+  void real(double v, Precision p) {
+    if (p == Precision::kF16)
+      put<std::uint16_t>(Imath::half(float(v)).bits());
+    else
+      put<float>(float(v));
+  }
+  void text(const std::string& s) {
+    put<std::uint32_t>(std::uint32_t(s.size()));
+    bytes.insert(bytes.end(), s.begin(), s.end());
+  }
+  std::vector<std::uint8_t> bytes;
+};
+
+// Reads fields in order; running past the end or fail() throws Error(kFormat) naming the
+// file ("<what> '<name>'") and the fix.
+class ByteReader {
+ public:
+  ByteReader(std::span<const std::uint8_t> b, std::string what, std::string name, std::string fix)
+      : b_(b), what_(std::move(what)), name_(std::move(name)), fix_(std::move(fix)) {}
+  template <class T>
+  T get(const char* field) {
+    if (pos_ + sizeof(T) > b_.size())
+      throw Error(Error::Kind::kFormat,
+                  fmt::format("{} '{}' ends inside field '{}' (at byte {}); the file is "
+                              "truncated: {}",
+                              what_, name_, field, pos_, fix_));
+    T v;
+    std::memcpy(&v, b_.data() + pos_, sizeof(T));
+    pos_ += sizeof(T);
+    return v;
+  }
+  double real(Precision p, const char* field) {
+    if (p == Precision::kF16) {
+      Imath::half h;
+      h.setBits(get<std::uint16_t>(field));
+      return double(float(h));
+    }
+    return double(get<float>(field));
+  }
+  std::string text(const char* field) {
+    const auto n = get<std::uint32_t>(field);
+    if (n > remaining()) fail(fmt::format("field '{}' claims {} bytes", field, n));
+    std::string s(reinterpret_cast<const char*>(b_.data() + pos_), n);
+    pos_ += n;
+    return s;
+  }
+  std::size_t remaining() const { return b_.size() - pos_; }
+  std::size_t pos() const { return pos_; }
+  [[noreturn]] void fail(const std::string& problem) const {
+    throw Error(Error::Kind::kFormat, fmt::format("{} '{}' is invalid: {} (at byte {}); {}", what_,
+                                                  name_, problem, pos_, fix_));
+  }
+
+ private:
+  std::span<const std::uint8_t> b_;
+  std::string what_, name_, fix_;
+  std::size_t pos_ = 0;
+};
+
+}  // namespace btfgmm::detail

@@ -1,0 +1,132 @@
+// Fit checkpoints: magic, version, payload, CRC-32 (the model file's conventions), the EM
+// state in full double precision so that a resumed fit continues bit for bit.
+#include "btfgmm/model/checkpoint.hpp"
+
+#include <fmt/format.h>
+#include <zlib.h>
+
+#include <cmath>
+#include <cstring>
+
+#include "btfgmm/core/error.hpp"
+#include "btfgmm/io/files.hpp"
+#include "io/byte_io.hpp"
+
+namespace btfgmm {
+namespace {
+
+constexpr std::uint8_t kMagic[8] = {0x89, 'B', 'T', 'F', 'C', 'K', 'P', '\n'};
+constexpr std::uint32_t kVersion = 1;
+constexpr const char* kWhat = "checkpoint";
+constexpr const char* kFix = "start the fit again without --resume";
+
+void fnv(std::uint64_t& h, const void* data, std::size_t n) {
+  const auto* p = static_cast<const std::uint8_t*>(data);
+  for (std::size_t i = 0; i < n; ++i) {
+    h ^= p[i];
+    h *= 0x100000001b3ull;
+  }
+}
+
+}  // namespace
+
+std::uint64_t btf_fingerprint(const Btf& btf) {
+  std::uint64_t h = 0xcbf29ce484222325ull;
+  const int size[2] = {btf.width(), btf.height()};
+  fnv(h, size, sizeof size);
+  for (const auto* set : {&btf.lights(), &btf.views()})
+    for (const Direction& d : *set) fnv(h, &d, sizeof d);
+  fnv(h, btf.data().data(), btf.data().size_bytes());
+  return h;
+}
+
+void save_checkpoint(const FitCheckpoint& c, const std::filesystem::path& path) {
+  detail::ByteWriter w;
+  w.bytes.assign(kMagic, kMagic + 8);
+  w.put<std::uint32_t>(kVersion);
+  w.text(c.input);
+  w.text(c.output);
+  w.put<std::int32_t>(c.tile.x);
+  w.put<std::int32_t>(c.tile.y);
+  w.put<std::int32_t>(c.tile.width);
+  w.put<std::int32_t>(c.tile.height);
+  w.put<std::uint64_t>(c.components);
+  w.put<std::uint64_t>(c.seed);
+  w.put<std::int32_t>(c.max_iterations);
+  w.put<double>(c.epsilon);
+  w.put<std::uint32_t>(std::uint32_t(c.precision));
+  w.put<std::uint64_t>(c.data_fingerprint);
+  const EmResult& r = c.state.result;
+  w.put<std::int32_t>(r.iterations);
+  w.put<std::uint64_t>(r.dropped);
+  w.put<std::uint8_t>(r.converged ? 1 : 0);
+  w.put<std::uint32_t>(std::uint32_t(r.log_likelihood.size()));
+  for (double l : r.log_likelihood) w.put<double>(l);
+  const ProductMixture& m = c.state.mixture;
+  w.put<std::uint32_t>(std::uint32_t(m.size()));
+  for (std::size_t k = 0; k < m.size(); ++k) {
+    w.put<double>(m.weight[k]);
+    for (double v : m.mean[k]) w.put<double>(v);
+    for (double v : m.var[k]) w.put<double>(v);
+  }
+  const auto crc = std::uint32_t(crc32(0L, w.bytes.data(), uInt(w.bytes.size())));
+  w.put<std::uint32_t>(crc);
+  write_file_atomically(path, w.bytes, kWhat);
+}
+
+FitCheckpoint load_checkpoint(const std::filesystem::path& path) {
+  const std::vector<std::uint8_t> bytes = read_whole_file(path, kWhat);
+  const std::string name = path.string();
+  if (bytes.size() < 16 || std::memcmp(bytes.data(), kMagic, 8) != 0)
+    throw Error(Error::Kind::kFormat,
+                fmt::format("'{}' is not a btfgmm checkpoint (written by 'btfgmm fit "
+                            "--checkpoint'); {}",
+                            name, kFix));
+  std::uint32_t stored;
+  std::memcpy(&stored, bytes.data() + bytes.size() - 4, 4);
+  if (std::uint32_t(crc32(0L, bytes.data(), uInt(bytes.size() - 4))) != stored)
+    throw Error(Error::Kind::kFormat,
+                fmt::format("checkpoint '{}' is truncated or corrupted (checksum mismatch); {}",
+                            name, kFix));
+  const std::span<const std::uint8_t> all(bytes);
+  detail::ByteReader r(all.subspan(8, bytes.size() - 12), kWhat, name, kFix);
+  if (const auto v = r.get<std::uint32_t>("version"); v != kVersion)
+    r.fail(fmt::format("version {} (this btfgmm reads version {})", v, kVersion));
+  FitCheckpoint c;
+  c.input = r.text("input");
+  c.output = r.text("output");
+  c.tile.x = r.get<std::int32_t>("tile x");
+  c.tile.y = r.get<std::int32_t>("tile y");
+  c.tile.width = r.get<std::int32_t>("tile width");
+  c.tile.height = r.get<std::int32_t>("tile height");
+  c.components = r.get<std::uint64_t>("components");
+  c.seed = r.get<std::uint64_t>("seed");
+  c.max_iterations = r.get<std::int32_t>("max iterations");
+  c.epsilon = r.get<double>("epsilon");
+  const auto precision = r.get<std::uint32_t>("precision");
+  if (precision > 1) r.fail("unknown precision");
+  c.precision = Precision(precision);
+  c.data_fingerprint = r.get<std::uint64_t>("data fingerprint");
+  EmResult& res = c.state.result;
+  res.iterations = r.get<std::int32_t>("iterations");
+  res.dropped = r.get<std::uint64_t>("dropped");
+  res.converged = r.get<std::uint8_t>("converged") != 0;
+  const auto n = r.get<std::uint32_t>("history");
+  if (std::size_t(n) * 8 > r.remaining() || int(n) != res.iterations)
+    r.fail("the log-likelihood history does not match the iteration count");
+  res.log_likelihood.resize(n);
+  for (double& l : res.log_likelihood) l = r.get<double>("log-likelihood");
+  const auto m = r.get<std::uint32_t>("components");
+  if (m == 0 || std::size_t(m) * 19 * 8 != r.remaining())
+    r.fail(fmt::format("{} components do not fit the {} bytes left", m, r.remaining()));
+  ProductMixture& mix = c.state.mixture;
+  mix.resize(m);
+  for (std::size_t k = 0; k < m; ++k) {
+    mix.weight[k] = r.get<double>("weight");
+    for (double& v : mix.mean[k]) v = r.get<double>("mean");
+    for (double& v : mix.var[k]) v = r.get<double>("variance");
+  }
+  return c;
+}
+
+}  // namespace btfgmm

@@ -1,0 +1,226 @@
+// The .btfgmm model file (docs/FORMAT.md): magic, version, flags, payload, CRC-32.
+#include <fmt/format.h>
+#include <zlib.h>
+
+#include <cmath>
+#include <cstring>
+
+#include "btfgmm/core/error.hpp"
+#include "btfgmm/core/limits.hpp"
+#include "btfgmm/io/files.hpp"
+#include "btfgmm/model/model.hpp"
+#include "btfgmm/model/model_file.hpp"
+#include "io/byte_io.hpp"
+
+namespace btfgmm {
+namespace {
+
+constexpr std::uint8_t kMagic[8] = {0x89, 'B', 'T', 'F', 'G', 'M', 'M', '\n'};
+constexpr std::size_t kHeaderBytes = 24, kTrailerBytes = 4;
+constexpr std::uint32_t kDirectionsExplicit = 0, kDirectionsUbo81 = 1;
+
+using Writer = detail::ByteWriter;
+using Reader = detail::ByteReader;
+
+void put_directions(Writer& w, const DirectionSet& s) {
+  if (s == DirectionSet::ubo81()) {
+    w.put<std::uint32_t>(kDirectionsUbo81);
+    return;
+  }
+  w.put<std::uint32_t>(kDirectionsExplicit);
+  w.put<std::uint32_t>(std::uint32_t(s.size()));
+  for (const auto& d : s) {
+    w.put<double>(d.theta_deg);
+    w.put<double>(d.phi_deg);
+  }
+}
+
+DirectionSet get_directions(Reader& r, const char* what) {
+  const auto kind = r.get<std::uint32_t>(what);
+  if (kind == kDirectionsUbo81) return DirectionSet::ubo81();
+  if (kind != kDirectionsExplicit) r.fail(fmt::format("unknown {} kind {}", what, kind));
+  const auto n = r.get<std::uint32_t>(what);
+  if (n == 0 || std::size_t(n) * 16 > r.remaining())
+    r.fail(fmt::format("{} count {} does not fit the file", what, n));
+  std::vector<Direction> dirs(n);
+  for (auto& d : dirs) {
+    d.theta_deg = r.get<double>(what);
+    d.phi_deg = r.get<double>(what);
+    if (!(d.theta_deg >= 0.0 && d.theta_deg <= 90.0 && std::isfinite(d.phi_deg)))
+      r.fail(fmt::format("a {} direction ({}, {}) is off the hemisphere", what, d.theta_deg,
+                         d.phi_deg));
+  }
+  return DirectionSet(std::move(dirs));
+}
+
+}  // namespace
+
+std::vector<std::uint8_t> serialize_model(const BtfModel& m) {
+  const Precision p = m.precision;
+  Writer w;
+  w.put<std::uint32_t>(std::uint32_t(m.width));
+  w.put<std::uint32_t>(std::uint32_t(m.height));
+  w.put<std::int32_t>(m.origin.x);
+  w.put<std::int32_t>(m.origin.y);
+  w.put<std::uint32_t>(std::uint32_t(m.format));
+  put_directions(w, m.lights);
+  put_directions(w, m.views);
+  for (double u : m.scaling.unit) w.put<double>(u);
+  const FitSettings& s = m.settings;
+  w.put<std::uint32_t>(s.components);
+  w.put<std::uint32_t>(s.max_iterations);
+  w.put<double>(s.epsilon);
+  w.put<std::uint64_t>(s.seed);
+  w.put<std::uint32_t>(s.iterations);
+  w.put<std::uint32_t>(s.dropped);
+  w.put<double>(s.log_likelihood);
+  w.put<std::uint32_t>(std::uint32_t(m.mixture.size()));
+  for (std::size_t k = 0; k < m.mixture.size(); ++k) {
+    w.put<float>(float(m.mixture.weight[k]));
+    for (int n = 0; n < kVariables; ++n) w.real(m.mixture.mean[k][n], p);
+    for (int n = 0; n < kVariables; ++n) w.real(std::sqrt(m.mixture.var[k][n]), p);
+  }
+  for (float v : m.mean_brdf) w.real(v, p);
+
+  std::vector<std::uint8_t> out(kMagic, kMagic + 8);
+  Writer h;
+  h.put<std::uint32_t>(kModelFormatVersion);
+  h.put<std::uint32_t>(std::uint32_t(p));
+  h.put<std::uint64_t>(std::uint64_t(w.bytes.size()));
+  out.insert(out.end(), h.bytes.begin(), h.bytes.end());
+  out.insert(out.end(), w.bytes.begin(), w.bytes.end());
+  const std::uint32_t crc = std::uint32_t(crc32(0L, out.data(), uInt(out.size())));
+  Writer t;
+  t.put<std::uint32_t>(crc);
+  out.insert(out.end(), t.bytes.begin(), t.bytes.end());
+  return out;
+}
+
+BtfModel deserialize_model(std::span<const std::uint8_t> bytes, const std::string& name) {
+  if (bytes.empty())
+    throw Error(Error::Kind::kFormat,
+                fmt::format("model file '{}' is empty (0 bytes); fit the model again", name));
+  if (bytes.size() < 8 || std::memcmp(bytes.data(), kMagic, 8) != 0) {
+    std::string what = "it does not start with the btfgmm magic bytes";
+    if (bytes.size() >= 4 && bytes[0] == 0x89 && bytes[1] == 'P' && bytes[2] == 'N')
+      what = "it is a PNG image";
+    else if (bytes.size() >= 3 && bytes[0] == 0xFF && bytes[1] == 0xD8)
+      what = "it is a JPEG image";
+    throw Error(Error::Kind::kFormat,
+                fmt::format("'{}' is not a btfgmm model file: {}; give a .btfgmm file written "
+                            "by 'btfgmm fit'",
+                            name, what));
+  }
+  if (bytes.size() < kHeaderBytes + kTrailerBytes)
+    throw Error(Error::Kind::kFormat,
+                fmt::format("model file '{}' is truncated ({} bytes, less than its header); "
+                            "fit or copy it again",
+                            name, bytes.size()));
+  Reader hr(bytes.subspan(8, kHeaderBytes - 8), "model file", name, "fit or copy it again");
+  const auto version = hr.get<std::uint32_t>("version");
+  const auto flags = hr.get<std::uint32_t>("flags");
+  const auto payload = hr.get<std::uint64_t>("payload size");
+  if (version > kModelFormatVersion)
+    throw Error(Error::Kind::kFormat,
+                fmt::format("model file '{}' has format version {}, newer than the version {} "
+                            "this btfgmm reads; use a newer btfgmm",
+                            name, version, kModelFormatVersion));
+  if (version == 0)
+    throw Error(Error::Kind::kFormat, fmt::format("model file '{}' has format version 0, "
+                                                  "which no btfgmm writes; it is corrupted",
+                                                  name));
+  if (payload != bytes.size() - kHeaderBytes - kTrailerBytes)
+    throw Error(Error::Kind::kFormat,
+                fmt::format("model file '{}' is {} bytes but its header says {}; it is "
+                            "truncated or has trailing data: fit or copy it again",
+                            name, bytes.size(), payload + kHeaderBytes + kTrailerBytes));
+  std::uint32_t stored_crc;
+  std::memcpy(&stored_crc, bytes.data() + bytes.size() - 4, 4);
+  const auto crc = std::uint32_t(crc32(0L, bytes.data(), uInt(bytes.size() - 4)));
+  if (crc != stored_crc)
+    throw Error(Error::Kind::kFormat,
+                fmt::format("model file '{}' is corrupted (CRC-32 {:08x}, stored {:08x}); "
+                            "copy or fit it again",
+                            name, crc, stored_crc));
+  if (flags > 1)
+    throw Error(Error::Kind::kFormat,
+                fmt::format("model file '{}' has unknown flags {:#x}", name, flags));
+
+  BtfModel m;
+  m.precision = Precision(flags);
+  const Precision p = m.precision;
+  Reader r(bytes.subspan(kHeaderBytes, std::size_t(payload)), "model file", name,
+           "fit the model again");
+  const auto w = r.get<std::uint32_t>("width"), h = r.get<std::uint32_t>("height");
+  // The tile was cut from an image: no larger than the largest image read.
+  if (w < 1 || h < 1 || w > std::uint32_t(limits::kMaxImageSide) ||
+      h > std::uint32_t(limits::kMaxImageSide) ||
+      std::int64_t(w) * std::int64_t(h) > limits::kMaxImagePixels)
+    r.fail(fmt::format("tile size {}x{} is out of range", w, h));
+  m.width = int(w);
+  m.height = int(h);
+  m.origin.x = r.get<std::int32_t>("origin x");
+  m.origin.y = r.get<std::int32_t>("origin y");
+  if (m.origin.x < 0 || m.origin.y < 0 || m.origin.x > limits::kMaxImageSide - m.width ||
+      m.origin.y > limits::kMaxImageSide - m.height)
+    r.fail(fmt::format("the tile's origin ({}, {}) is outside any image", m.origin.x, m.origin.y));
+  m.origin.width = m.width;
+  m.origin.height = m.height;
+  const auto format = r.get<std::uint32_t>("sample format");
+  if (format > 2) r.fail(fmt::format("unknown sample format {}", format));
+  m.format = SampleFormat(format);
+  m.lights = get_directions(r, "light directions");
+  m.views = get_directions(r, "view directions");
+  for (double& u : m.scaling.unit) {
+    u = r.get<double>("variable unit");
+    if (!(u > 0.0) || !std::isfinite(u)) r.fail(fmt::format("variable unit {} is not positive", u));
+  }
+  FitSettings& s = m.settings;
+  s.components = r.get<std::uint32_t>("components requested");
+  s.max_iterations = r.get<std::uint32_t>("max iterations");
+  s.epsilon = r.get<double>("epsilon");
+  s.seed = r.get<std::uint64_t>("seed");
+  s.iterations = r.get<std::uint32_t>("iterations");
+  s.dropped = r.get<std::uint32_t>("dropped");
+  s.log_likelihood = r.get<double>("log-likelihood");
+  const auto count = r.get<std::uint32_t>("components");
+  const std::size_t real_bytes = p == Precision::kF16 ? 2 : 4;
+  if (double(m.lights.size()) * double(m.views.size()) > double(r.remaining()))
+    r.fail(fmt::format("{} x {} directions need a larger mean BRDF than the file holds",
+                       m.lights.size(), m.views.size()));
+  const std::size_t expect = std::size_t(count) * (4 + 18 * real_bytes) +
+                             m.lights.size() * m.views.size() * 3 * real_bytes;
+  if (count == 0 || expect != r.remaining())
+    r.fail(fmt::format("{} components and {} x {} directions need {} more bytes, the file has {}",
+                       count, m.lights.size(), m.views.size(), expect, r.remaining()));
+  m.mixture.resize(count);
+  for (std::size_t k = 0; k < count; ++k) {
+    m.mixture.weight[k] = double(r.get<float>("weight"));
+    for (int n = 0; n < kVariables; ++n) m.mixture.mean[k][n] = r.real(p, "mean");
+    for (int n = 0; n < kVariables; ++n) {
+      const double sd = r.real(p, "sigma");
+      m.mixture.var[k][n] = sd * sd;
+    }
+    bool ok = m.mixture.weight[k] > 0.0 && std::isfinite(m.mixture.weight[k]);
+    for (int n = 0; n < kVariables; ++n)
+      ok = ok && std::isfinite(m.mixture.mean[k][n]) && m.mixture.var[k][n] > 0.0 &&
+           std::isfinite(m.mixture.var[k][n]);
+    if (!ok) r.fail(fmt::format("component {} has a non-finite or non-positive parameter", k));
+  }
+  m.mean_brdf.resize(m.lights.size() * m.views.size() * 3);
+  for (float& v : m.mean_brdf) {
+    v = float(r.real(p, "mean BRDF"));
+    if (!std::isfinite(v)) r.fail("the mean BRDF holds a non-finite value");
+  }
+  return m;
+}
+
+void save_model(const BtfModel& model, const std::filesystem::path& path) {
+  write_file_atomically(path, serialize_model(model), "model file");
+}
+
+BtfModel load_model(const std::filesystem::path& path) {
+  return deserialize_model(read_whole_file(path, "model file"), path.string());
+}
+
+}  // namespace btfgmm
