@@ -1,4 +1,5 @@
-// Directions and the onion-slice parameterisation (DESIGN §2.1, docs/ALGORITHM.md).
+// Directions and the onion-slice parameterisation (docs/ALGORITHM.md, "Onion-slice coordinates,
+// signed").
 #include "btfgmm/core/directions.hpp"
 
 #include <fmt/format.h>

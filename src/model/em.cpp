@@ -1,4 +1,4 @@
-// EM on the sample grid, Eq. (3)-(7), organised for speed (DESIGN §4).
+// EM on the sample grid, Eq. (3)-(7), organised for speed (docs/ALGORITHM.md, "The grid path").
 //
 // For component m and sample (pixel p, light l, view v), log w_m F(x | m) splits into
 //   S[p][m]  (log w_m, the normalisation, and the x, y terms: depends on the pixel only)

@@ -1,4 +1,5 @@
-// The mean BRDF, the residual sample set and the random initialisation (DESIGN §2.2-2.4).
+// The mean BRDF, the residual sample set and the random initialisation (docs/ALGORITHM.md, "The
+// mean BRDF and the sample set").
 #include <fmt/format.h>
 
 #include <algorithm>

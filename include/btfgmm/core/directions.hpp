@@ -27,7 +27,7 @@ struct Vec3 {
 };
 
 // Onion-slice coordinates in radians: beta = asin(sin theta cos phi) in [-pi/2, pi/2],
-// alpha = atan2(sin theta sin phi, cos theta) in (-pi, pi] (signed, DESIGN §2.1).
+// alpha = atan2(sin theta sin phi, cos theta) in (-pi, pi] (signed: docs/ALGORITHM.md).
 struct OnionSlice {
   double alpha = 0.0;
   double beta = 0.0;
@@ -39,7 +39,7 @@ Vec3 to_vector(const Direction& d);
 // At the pole (x = y = 0) phi is 0.
 Direction to_direction(const Vec3& v);
 
-// The signed onion-slice form (DESIGN §2.1, the paper's xi_3..xi_6 with the sign of
+// The signed onion-slice form (docs/ALGORITHM.md, the paper's xi_3..xi_6 with the sign of
 // sin(phi) kept): beta = asin(x), alpha = atan2(y, z).
 OnionSlice to_onion_slice(const Vec3& v);
 OnionSlice to_onion_slice(const Direction& d);

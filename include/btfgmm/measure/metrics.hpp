@@ -1,4 +1,4 @@
-// Image quality as the paper measures it (its Fig. 3, DESIGN §2.6-2.7): RMSE, PSNR and SSIM of
+// Image quality as the paper measures it (its Fig. 3; docs/METRICS.md): RMSE, PSNR and SSIM of
 // a reconstructed image against the original, per channel and overall, per (light, view)
 // image and over the whole BTF; and the paper's compression ratio for any tile size (Fig. 4).
 //
@@ -93,9 +93,9 @@ struct BtfQuality {
 BtfQuality measure_quality(const Btf& original, const Btf& reconstruction, double range = 0.0,
                            const SsimSettings& settings = {});
 
-// The paper's compression ratio (DESIGN §2.6) of a tile of `pixels` = W * H pixels with
-// `lights` x `views` directions and M `components`: W*H*ni*nv*3 bytes of 8-bit data against
-// M * 9 * 2 four-byte floats plus the mean BRDF as ni*nv*3 bytes. Linear in the pixel count
+// The paper's compression ratio (docs/ALGORITHM.md, "Compression ratio") of a tile of `pixels` = W
+// * H pixels with `lights` x `views` directions and M `components`: W*H*ni*nv*3 bytes of 8-bit data
+// against M * 9 * 2 four-byte floats plus the mean BRDF as ni*nv*3 bytes. Linear in the pixel count
 // (the paper's Fig. 4). Equals BtfModel::compression_ratio_paper() for a model's own tile.
 double paper_compression_ratio(double pixels, std::size_t lights, std::size_t views,
                                std::size_t components);

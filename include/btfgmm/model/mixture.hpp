@@ -20,7 +20,7 @@ namespace btfgmm {
 constexpr int kVariables = 9;  // x, y, alpha_i, beta_i, alpha_v, beta_v, r, g, b
 constexpr int kInputs = 6;     // the inputs I = {1..6} of Eq. (8)-(10)
 // The variance floor, in units of each variable's quantisation step squared: the variance
-// of a uniform distribution over one step (DESIGN §2.4).
+// of a uniform distribution over one step (docs/ALGORITHM.md, "Units and the variance floor").
 constexpr double kVarianceFloor = 1.0 / 12.0;
 
 // P(x) = sum_m w_m prod_n N(x_n | mu_mn, sigma_mn^2)   (Eq. 1-2)

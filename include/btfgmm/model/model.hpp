@@ -42,8 +42,8 @@ struct BtfModel {
   FitSettings settings;
   Precision precision = Precision::kF32;
 
-  // Compression ratio as the paper counts it (DESIGN §2.6): W*H*ni*nv*3 bytes of 8-bit data
-  // against M*9*2 floats (4 bytes) plus the mean BRDF as ni*nv*3 bytes.
+  // Compression ratio as the paper counts it (docs/ALGORITHM.md, "Compression ratio"): W*H*ni*nv*3
+  // bytes of 8-bit data against M*9*2 floats (4 bytes) plus the mean BRDF as ni*nv*3 bytes.
   double compression_ratio_paper() const;
   // The same data against the bytes of the model file actually written.
   double compression_ratio_file(std::uint64_t file_bytes) const;

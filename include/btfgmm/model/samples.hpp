@@ -24,13 +24,13 @@ struct VariableScaling {
 // angle to the nearest other direction, in radians (1 for a single direction).
 double angular_sampling_step(const DirectionSet& set);
 
-// The mean BRDF (DESIGN §2.2): for each (light, view), the mean RGB over the tile's pixels,
-// light-major, ni * nv * 3 values.
+// The mean BRDF (docs/ALGORITHM.md, "The mean BRDF and the sample set"): for each (light, view),
+// the mean RGB over the tile's pixels, light-major, ni * nv * 3 values.
 std::vector<float> mean_brdf(const Btf& btf);
 
-// The residual sample set (DESIGN §2.3) without N x 9 numbers: the residual colour of every
-// (pixel, light, view) in model units, ordered pixel-major, then light, then view; x, y and
-// the angles are implied by the indices and tabulated once.
+// The residual sample set (docs/ALGORITHM.md, "The mean BRDF and the sample set") without N x 9
+// numbers: the residual colour of every (pixel, light, view) in model units, ordered pixel-major,
+// then light, then view; x, y and the angles are implied by the indices and tabulated once.
 struct SampleSet {
   int width = 0, height = 0;
   std::size_t lights = 0, views = 0;
