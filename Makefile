@@ -6,7 +6,7 @@ JOBS ?= $(shell nproc 2>/dev/null || echo 2)
 WERROR ?= $(if $(filter true 1 yes,$(CI)),ON,OFF)
 CMAKE_ARGS ?=
 
-.PHONY: all deps configure build demo test bench asan format clean
+.PHONY: all deps configure build demo test bench asan fuzz sizes format clean
 
 all: build
 
@@ -46,6 +46,16 @@ asan:
 	@$(MAKE) --no-print-directory configure BUILD=build-asan CMAKE_ARGS="-DBTFGMM_ASAN=ON -DCMAKE_BUILD_TYPE=Debug -DBTFGMM_BENCH=OFF"
 	@cmake --build build-asan -j$(JOBS)
 	@cd build-asan && ctest --output-on-failure -j$(JOBS) $(if $(ASAN_TESTS),-R '$(ASAN_TESTS)') $(if $(ASAN_EXCLUDE),-E '$(ASAN_EXCLUDE)')
+
+# The libFuzzer targets (tests/fuzz/), built with clang in build-fuzz and run FUZZ_SECONDS each.
+FUZZ_SECONDS ?= 60
+fuzz: deps
+	@scripts/fuzz $(FUZZ_SECONDS)
+
+# The size limits of the library's sources (docs/ARCHITECTURE.md): files <= 600 lines,
+# functions <= 80 lines.
+sizes:
+	@scripts/check-sizes src
 
 format:
 	@clang-format -i $$(git ls-files '*.cpp' '*.hpp')
