@@ -10,7 +10,8 @@
 //   per pixel, light and view: sum q            (x, y and the angles follow from these)
 //   per component:             sum q d, sum q d^2 with d = colour - previous mean.
 // Blocks are grouped into a fixed number of chunks of pixels whose statistics are reduced in
-// chunk order, so the result is the same for any number of threads.//
+// chunk order, so the result is the same for any number of threads.
+//
 // Per iteration: the tables (make_tables), the E pass (e_pass: Eq. 2-4, the group passes of
 // em_group_pass.hpp), the sufficient statistics of every component (sufficient_statistics),
 // the M-step (Eq. 5-7, m_step in mixture.cpp) and the stop test.
@@ -363,14 +364,16 @@ EmResult fit_em(const SampleSet& s, ProductMixture& mix, const EmConfig& config,
     result.interrupted = false;
   }
   for (int it = result.iterations + 1; it <= config.max_iterations && !result.converged; ++it) {
-    const Tables t = make_tables(s, mix);
+    const Tables t = make_tables(s, mix);  // Eq. (2) in parts
     GridStatistics g(s, t.stride);
-    const double ll = e_pass(s, t, order, threads, &g);
+    const double ll = e_pass(s, t, order, threads, &g);  // Eq. (3)-(4)
+    // M-step, Eq. (5)-(7).
     result.dropped += detail::m_step(mix, sufficient_statistics(s, t, mix, g), double(s.size()),
                                      config.variance_floor, config.min_component_samples);
+    // Stop test: the gain of L (record_iteration), or a stop from outside (the state so far,
+    // to resume from).
     detail::record_iteration(result, ll, it, config, mix.size(), t0, progress);
     if (after_iteration) after_iteration(mix, result);
-    // Stopped from outside: the state so far, to resume from.
     if (config.stop && config.stop->load() && it < config.max_iterations && !result.converged) {
       result.interrupted = true;
       return result;
