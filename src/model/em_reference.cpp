@@ -1,88 +1,74 @@
 // The reference EM: Eq. (3)-(7) of the paper written out plainly on an explicit N x 9
 // sample matrix, in double. It is the readable statement the fast grid path (em.cpp) is
 // checked against, and it fits samples that do not lie on a grid (tests).
-#include <fmt/format.h>
+#include <span>
+#include <vector>
 
-#include <algorithm>
-#include <chrono>
-#include <cmath>
-#include <limits>
-#include <numbers>
-
-#include "btfgmm/core/error.hpp"
+#include "btfgmm/core/text.hpp"
 #include "btfgmm/model/em.hpp"
 #include "btfgmm/model/mixture.hpp"
 #include "model/mixture_internal.hpp"
+#include "model/responsibilities.hpp"
 
 namespace btfgmm {
 
 namespace {
 
-// log w_m + log F(x | mu_m, sigma_m), Eq. (2) in the log domain.
-double log_weighted_density(const ProductMixture& mix, std::size_t m, const double* x) {
-  double l = std::log(mix.weight[m]) - 0.5 * kVariables * std::log(2.0 * std::numbers::pi);
-  for (int n = 0; n < kVariables; ++n) {
-    const double d = x[n] - mix.mean[m][n];
-    l -= 0.5 * d * d / mix.var[m][n] + 0.5 * std::log(mix.var[m][n]);
+// log w_m F(x | m) of every component for the sample x, Eq. (2), into l; then Eq. (4):
+// the responsibilities into q. Returns the sample's term of L, Eq. (3).
+double e_step(const ProductMixture& mix, const double* x, std::vector<double>& l,
+              std::vector<double>& q) {
+  const std::size_t m_count = mix.size();
+  for (std::size_t m = 0; m < m_count; ++m) l[m] = detail::log_weighted_density(mix, m, x);
+  return detail::responsibilities(std::span(l.data(), m_count), std::span(q.data(), m_count));
+}
+
+// Adds one sample's responsibilities q to the sufficient statistics: sum q, sum q (x - mu_old),
+// sum q (x - mu_old)^2.
+void accumulate(detail::SufficientStatistics& stats, const ProductMixture& mix, const double* x,
+                const std::vector<double>& q) {
+  for (std::size_t m = 0; m < mix.size(); ++m) {
+    const double qm = q[m];
+    stats.s0[m] += qm;
+    for (int v = 0; v < kVariables; ++v) {
+      const double d = x[v] - mix.mean[m][v];
+      stats.s1[m][v] += qm * d;
+      stats.s2[m][v] += qm * d * d;
+    }
   }
-  return l;
 }
 
 }  // namespace
 
 double mean_log_likelihood(std::span<const double> samples, const ProductMixture& mixture) {
   const std::size_t n = samples.size() / kVariables;
-  std::vector<double> l(mixture.size());
+  std::vector<double> l(mixture.size()), q(mixture.size());
   double total = 0.0;
-  for (std::size_t i = 0; i < n; ++i) {
-    for (std::size_t m = 0; m < mixture.size(); ++m)
-      l[m] = log_weighted_density(mixture, m, &samples[i * kVariables]);
-    const double mx = *std::max_element(l.begin(), l.end());
-    double s = 0.0;
-    for (double v : l) s += std::exp(v - mx);
-    total += mx + std::log(s);
-  }
+  for (std::size_t i = 0; i < n; ++i) total += e_step(mixture, &samples[i * kVariables], l, q);
   return total / double(n);
 }
 
 EmResult fit_em_reference(std::span<const double> samples, ProductMixture& mix,
                           const EmConfig& config, const EmCallback& progress) {
   detail::check_em_input(samples.size() / kVariables, mix, config);
-  const auto t0 = std::chrono::steady_clock::now();
+  const auto t0 = Clock::now();
   const std::size_t n = samples.size() / kVariables;
   EmResult result;
   std::vector<double> l(mix.size()), q(mix.size());
   for (int it = 1; it <= config.max_iterations; ++it) {
-    const std::size_t m_count = mix.size();
-    // Sufficient statistics: sum q, sum q (x - mu_old), sum q (x - mu_old)^2.
-    std::vector<double> s0(m_count, 0.0);
-    std::vector<std::array<double, kVariables>> s1(m_count), s2(m_count);
-    for (auto& a : s1) a.fill(0.0);
-    for (auto& a : s2) a.fill(0.0);
+    // E step, Eq. (2)-(4): L and the sufficient statistics.
+    detail::SufficientStatistics stats(mix.size());
     double total = 0.0;
     for (std::size_t i = 0; i < n; ++i) {
       const double* x = &samples[i * kVariables];
-      // Eq. (4): q(m|x) = w_m F(x|m) / sum_j w_j F(x|j), by log-sum-exp.
-      for (std::size_t m = 0; m < m_count; ++m) l[m] = log_weighted_density(mix, m, x);
-      const double mx = *std::max_element(l.begin(), l.begin() + m_count);
-      double s = 0.0;
-      for (std::size_t m = 0; m < m_count; ++m) s += (q[m] = std::exp(l[m] - mx));
-      total += mx + std::log(s);  // Eq. (3)
-      for (std::size_t m = 0; m < m_count; ++m) {
-        const double qm = q[m] / s;
-        s0[m] += qm;
-        for (int v = 0; v < kVariables; ++v) {
-          const double d = x[v] - mix.mean[m][v];
-          s1[m][v] += qm * d;
-          s2[m][v] += qm * d * d;
-        }
-      }
+      total += e_step(mix, x, l, q);
+      accumulate(stats, mix, x, q);
     }
     const double ll = total / double(n);
-    // Eq. (5)-(7), the variance from the shifted sums, floored; vanished components dropped.
-    const std::size_t dropped = detail::m_step(mix, s0, s1, s2, double(n), config.variance_floor,
-                                               config.min_component_samples);
-    result.dropped += dropped;
+    // M-step, Eq. (5)-(7): the variance from the shifted sums, floored; vanished components
+    // dropped.
+    result.dropped +=
+        detail::m_step(mix, stats, double(n), config.variance_floor, config.min_component_samples);
     detail::record_iteration(result, ll, it, config, mix.size(), t0, progress);
     if (result.converged) break;
   }

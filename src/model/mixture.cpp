@@ -1,3 +1,5 @@
+// The pieces both EM paths share (mixture_internal.hpp): the input checks, the M-step
+// (Eq. 5-7), the bookkeeping of an iteration, and the k-d order of the components.
 #include <fmt/format.h>
 
 #include <algorithm>
@@ -35,10 +37,11 @@ void check_em_input(std::size_t samples, const ProductMixture& mix, const EmConf
   }
 }
 
-std::size_t m_step(ProductMixture& mix, const std::vector<double>& s0,
-                   const std::vector<std::array<double, kVariables>>& s1,
-                   const std::vector<std::array<double, kVariables>>& s2, double n, double floor,
+std::size_t m_step(ProductMixture& mix, const SufficientStatistics& stats, double n, double floor,
                    double min_samples) {
+  const auto& s0 = stats.s0;
+  const auto& s1 = stats.s1;
+  const auto& s2 = stats.s2;
   ProductMixture next;
   for (std::size_t m = 0; m < mix.size(); ++m) {
     if (!(s0[m] >= min_samples)) continue;  // vanished: "suppressed by EM"
@@ -64,8 +67,7 @@ std::size_t m_step(ProductMixture& mix, const std::vector<double>& s0,
 }
 
 void record_iteration(EmResult& result, double ll, int iteration, const EmConfig& config,
-                      std::size_t components, std::chrono::steady_clock::time_point start,
-                      const EmCallback& progress) {
+                      std::size_t components, Clock::time_point start, const EmCallback& progress) {
   EmProgress p;
   p.iteration = iteration;
   p.max_iterations = config.max_iterations;
@@ -79,7 +81,7 @@ void record_iteration(EmResult& result, double ll, int iteration, const EmConfig
   result.iterations = iteration;
   p.components = components;
   p.dropped = result.dropped;
-  p.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  p.seconds = seconds_since(start);
   if (progress) progress(p);
 }
 
