@@ -11,6 +11,7 @@
 #include "btfgmm/core/limits.hpp"
 #include "btfgmm/model/model.hpp"
 #include "btfgmm/model/samples.hpp"
+#include "core/random.hpp"
 
 namespace btfgmm {
 
@@ -113,17 +114,6 @@ SampleSet make_sample_set(const Btf& btf) {
   return s;
 }
 
-namespace {
-
-std::uint64_t splitmix64(std::uint64_t& state) {
-  std::uint64_t z = (state += 0x9E3779B97F4A7C15ull);
-  z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
-  z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
-  return z ^ (z >> 31);
-}
-
-}  // namespace
-
 ProductMixture initial_mixture(const SampleSet& s, std::size_t components, std::uint64_t seed) {
   const std::size_t n = s.size();
   if (components < 1)
@@ -167,11 +157,11 @@ ProductMixture initial_mixture(const SampleSet& s, std::size_t components, std::
 
   ProductMixture mix;
   mix.resize(components);
-  std::uint64_t state = seed;
+  detail::SplitMix64 random(seed);
   std::vector<std::size_t> chosen;
   for (std::size_t m = 0; m < components; ++m) {
     std::size_t i = 0;
-    do i = std::size_t(splitmix64(state) % n);
+    do i = std::size_t(random.next() % n);
     while (components * 4 <= n && std::find(chosen.begin(), chosen.end(), i) != chosen.end());
     chosen.push_back(i);
     mix.weight[m] = 1.0 / double(components);

@@ -9,32 +9,15 @@
 #include <cstdint>
 #include <numbers>
 
+#include "core/random.hpp"
+
 namespace btfgmm::detail::synth {
 
 inline constexpr double kPi = std::numbers::pi;
 
-// The splitmix64 output function: a bijective 64-bit mix (Steele, Lea & Flood 2014).
-constexpr std::uint64_t mix64(std::uint64_t z) {
-  z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ULL;
-  z = (z ^ (z >> 27)) * 0x94D049BB133111EBULL;
-  return z ^ (z >> 31);
-}
-
-// splitmix64 generator: sequential random numbers (bump placement, per-wale jitter, phases).
-class Rng {
- public:
-  explicit Rng(std::uint64_t seed) : state_(seed) {}
-  std::uint64_t next() {
-    state_ += 0x9E3779B97F4A7C15ULL;
-    return mix64(state_);
-  }
-  // Uniform in [0, 1) from the top 53 bits.
-  double uniform() { return double(next() >> 11) * 0x1.0p-53; }
-  double uniform(double lo, double hi) { return lo + (hi - lo) * uniform(); }
-
- private:
-  std::uint64_t state_;
-};
+using detail::mix64;
+// splitmix64: sequential random numbers (bump placement, per-wale jitter, phases).
+using Rng = detail::SplitMix64;
 
 // A stateless hash of integer lattice coordinates to [0, 1): the random values of the noise
 // lattices and of per-cell jitter, independent of evaluation order.
