@@ -1,4 +1,4 @@
-// RMSE, PSNR, SSIM (Wang et al. 2004) and the paper's compression ratio; see metrics.hpp.
+// RMSE, PSNR and SSIM (Wang et al. 2004); see metrics.hpp.
 #include "btfgmm/measure/metrics.hpp"
 
 #include <fmt/format.h>
@@ -9,7 +9,6 @@
 #include <numeric>
 
 #include "btfgmm/core/error.hpp"
-#include "btfgmm/model/mixture.hpp"
 
 namespace btfgmm {
 
@@ -228,19 +227,6 @@ BtfQuality measure_quality(const Btf& original, const Btf& reconstruction, doubl
     if (q.ssim > out.images[out.best_ssim].ssim) out.best_ssim = i;
   }
   return out;
-}
-
-double paper_compression_ratio(double pixels, std::size_t lights, std::size_t views,
-                               std::size_t components) {
-  const double pairs = double(lights) * double(views);
-  if (!(pixels > 0.0) || pairs <= 0.0)
-    throw Error(Error::Kind::kArgument,
-                fmt::format("compression ratio: {} pixels and {} x {} directions; give a tile "
-                            "of at least one pixel and non-empty direction sets",
-                            pixels, lights, views));
-  const double data = pixels * pairs * 3.0;
-  const double model = double(components) * kVariables * 2.0 * 4.0 + pairs * 3.0;
-  return data / model;
 }
 
 }  // namespace btfgmm

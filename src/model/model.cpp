@@ -1,16 +1,34 @@
 // The compression ratios of a model.
 #include "btfgmm/model/model.hpp"
+
+#include <fmt/format.h>
+
 #include "btfgmm/core/error.hpp"
 
 namespace btfgmm {
 
-double BtfModel::compression_ratio_paper() const {
+double paper_model_bytes(std::size_t lights, std::size_t views, std::size_t components) {
+  const double pairs = double(lights) * double(views);
+  return double(components) * kVariables * 2.0 * 4.0 + pairs * 3.0;
+}
+
+double paper_compression_ratio(double pixels, std::size_t lights, std::size_t views,
+                               std::size_t components) {
   // docs/ALGORITHM.md, "Compression ratio": W*H*ni*nv*3 bytes of 8-bit data against M*9*2 4-byte
   // floats plus the mean BRDF counted as ni*nv*3 bytes.
-  const double pairs = double(lights.size()) * double(views.size());
-  const double data = double(width) * height * pairs * 3.0;
-  const double model = double(mixture.size()) * kVariables * 2 * 4 + pairs * 3.0;
-  return data / model;
+  const double pairs = double(lights) * double(views);
+  if (!(pixels > 0.0) || pairs <= 0.0)
+    throw Error(Error::Kind::kArgument,
+                fmt::format("compression ratio: {} pixels and {} x {} directions; give a tile "
+                            "of at least one pixel and non-empty direction sets",
+                            pixels, lights, views));
+  const double data = pixels * pairs * 3.0;
+  return data / paper_model_bytes(lights, views, components);
+}
+
+double BtfModel::compression_ratio_paper() const {
+  return paper_compression_ratio(double(width) * double(height), lights.size(), views.size(),
+                                 mixture.size());
 }
 
 double BtfModel::compression_ratio_file(std::uint64_t file_bytes) const {

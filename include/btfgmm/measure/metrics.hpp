@@ -1,6 +1,7 @@
 // Image quality as the paper measures it (its Fig. 3; docs/METRICS.md): RMSE, PSNR and SSIM of
 // a reconstructed image against the original, per channel and overall, per (light, view)
-// image and over the whole BTF; and the paper's compression ratio for any tile size (Fig. 4).
+// image and over the whole BTF. The paper's compression ratio for any tile size (Fig. 4),
+// paper_compression_ratio(), is declared with the model in model.hpp.
 //
 // Scale. Values are in the scale of btf.hpp: 0-255 levels for 8- and 16-bit data. The range R
 // used by PSNR = 20 log10(R / RMSE) and by SSIM (C1 = (K1 R)^2, C2 = (K2 R)^2) is 255 for
@@ -26,6 +27,8 @@
 #include <vector>
 
 #include "btfgmm/core/btf.hpp"
+// paper_compression_ratio(), the paper's compression ratio for any tile size (Fig. 4).
+#include "btfgmm/model/model.hpp"
 
 namespace btfgmm {
 
@@ -92,12 +95,5 @@ struct BtfQuality {
 // required (Error(kArgument) otherwise). `range` <= 0 means data_range(original).
 BtfQuality measure_quality(const Btf& original, const Btf& reconstruction, double range = 0.0,
                            const SsimSettings& settings = {});
-
-// The paper's compression ratio (docs/ALGORITHM.md, "Compression ratio") of a tile of `pixels` = W
-// * H pixels with `lights` x `views` directions and M `components`: W*H*ni*nv*3 bytes of 8-bit data
-// against M * 9 * 2 four-byte floats plus the mean BRDF as ni*nv*3 bytes. Linear in the pixel count
-// (the paper's Fig. 4). Equals BtfModel::compression_ratio_paper() for a model's own tile.
-double paper_compression_ratio(double pixels, std::size_t lights, std::size_t views,
-                               std::size_t components);
 
 }  // namespace btfgmm

@@ -42,11 +42,22 @@ struct BtfModel {
   FitSettings settings;
   Precision precision = Precision::kF32;
 
-  // Compression ratio as the paper counts it (docs/ALGORITHM.md, "Compression ratio"): W*H*ni*nv*3
-  // bytes of 8-bit data against M*9*2 floats (4 bytes) plus the mean BRDF as ni*nv*3 bytes.
+  // Compression ratio as the paper counts it: paper_compression_ratio() of this model's tile,
+  // direction sets and M.
   double compression_ratio_paper() const;
   // The same data against the bytes of the model file actually written.
   double compression_ratio_file(std::uint64_t file_bytes) const;
 };
+
+// The paper's size count (docs/ALGORITHM.md, "Compression ratio"): a model of M `components`
+// as M*9*2 four-byte floats (a mean and a variance per variable and component) plus the mean
+// BRDF of `lights` x `views` directions as ni*nv*3 bytes.
+double paper_model_bytes(std::size_t lights, std::size_t views, std::size_t components);
+// The paper's compression ratio of a tile of `pixels` = W*H pixels with `lights` x `views`
+// directions and M `components`: W*H*ni*nv*3 bytes of 8-bit data against paper_model_bytes().
+// Linear in the pixel count (the paper's Fig. 4). Throws Error(kArgument) for no pixels or an
+// empty direction set.
+double paper_compression_ratio(double pixels, std::size_t lights, std::size_t views,
+                               std::size_t components);
 
 }  // namespace btfgmm

@@ -1,0 +1,46 @@
+// A model compared with the BTF tile it was fitted to: its quality (docs/METRICS.md), the
+// quality of its mean BRDF alone, and the (light, view) images a report pictures.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "btfgmm/core/btf.hpp"
+#include "btfgmm/measure/metrics.hpp"
+#include "btfgmm/model/model.hpp"
+
+namespace btfgmm {
+
+// One (light, view) pair pictured: its original and model images (the tile, in the data's
+// scale) and why it was chosen.
+struct PicturedPair {
+  std::size_t light = 0, view = 0;
+  std::string label;  // e.g. "frontal light and view", "worst PSNR 1"
+  std::vector<float> original, model;
+};
+
+struct ModelComparison {
+  std::string name;  // how the report names the model (its file)
+  BtfModel model;
+  std::uint64_t file_bytes = 0;  // the size of the model file (0: not written)
+  Tile tile;                     // the tile of the source the model was fitted to
+  BtfQuality quality;            // the model against the original tile
+  BtfQuality mean_brdf_only;     // the mean BRDF alone (every pixel its image's mean)
+  std::vector<float> mean_brdf;  // of the original tile, ni * nv * 3 (Fig. 2)
+  std::vector<PicturedPair> pairs;
+};
+
+struct CompareOptions {
+  std::size_t worst_pairs = 3;  // pictures of the worst images by PSNR
+  SsimSettings ssim;
+};
+
+// Decodes `model` at its own direction sets and tile size, measures it against `original` (the
+// tile it was fitted to) and keeps the images of the pairs to picture: frontal light and view,
+// a grazing light, a grazing view, then the worst by PSNR. Throws Error(kArgument) naming
+// `name` if the original's direction sets or size differ from the model's.
+ModelComparison compare_model(const Btf& original, const BtfModel& model, const std::string& name,
+                              std::uint64_t file_bytes, const CompareOptions& options = {});
+
+}  // namespace btfgmm

@@ -1,0 +1,24 @@
+// Pieces shared by the report's inline SVG and HTML: text escaping and chart axes with nice
+// ticks.
+#pragma once
+
+#include <string>
+
+namespace btfgmm::svg {
+
+// `s` with &, <, > and " escaped for HTML text and attributes.
+std::string escape(const std::string& s);
+
+// A tick step of 1, 2, 2.5 or 5 times a power of ten giving about `target` ticks over `span`.
+double nice_step(double span, int target);
+// `v` with as many decimals as `step` needs.
+std::string tick_text(double v, double step);
+
+struct Axis {
+  double lo = 0, hi = 1, step = 1;
+};
+
+// An axis over [lo, hi] (and 0 if `from_zero`) with a little room and about `ticks` nice ticks.
+Axis make_axis(double lo, double hi, bool from_zero, int ticks);
+
+}  // namespace btfgmm::svg
