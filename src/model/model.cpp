@@ -26,14 +26,22 @@ double paper_compression_ratio(double pixels, std::size_t lights, std::size_t vi
   return data / paper_model_bytes(lights, views, components);
 }
 
+namespace {
+
+// The data as the paper counts it: W*H*ni*nv*3 bytes of 8-bit RGB.
+double data_bytes(const BtfModel& m) {
+  return double(m.width) * double(m.height) * double(m.lights.size()) * double(m.views.size()) *
+         3.0;
+}
+
+}  // namespace
+
 double BtfModel::compression_ratio_paper() const {
-  return paper_compression_ratio(double(width) * double(height), lights.size(), views.size(),
-                                 mixture.size());
+  return data_bytes(*this) / paper_model_bytes(lights.size(), views.size(), mixture.size());
 }
 
 double BtfModel::compression_ratio_file(std::uint64_t file_bytes) const {
-  const double pairs = double(lights.size()) * double(views.size());
-  return double(width) * height * pairs * 3.0 / double(file_bytes);
+  return data_bytes(*this) / double(file_bytes);
 }
 
 }  // namespace btfgmm
