@@ -7,6 +7,8 @@
 
 #include <array>
 #include <cmath>
+#include <span>
+#include <vector>
 
 #include "btfgmm/core/error.hpp"
 #include "btfgmm/model/model.hpp"

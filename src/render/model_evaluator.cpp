@@ -100,6 +100,8 @@ AffineTriangle affine_triangle(const std::vector<std::array<double, 2>>& xy,
   return r;
 }
 
+// Up to two closed intervals in [0, period] holding a set of wrapped coordinates (the box of
+// x or y over a block).
 Intervals wrapped_box(const float* v, int n, int stride, int period) {
   const float ref = v[0], half = 0.5f * float(period), per = float(period);
   float dmin = 0, dmax = 0;

@@ -122,8 +122,6 @@ inline Vf max_log_weight(const Record* __restrict rec, const std::uint32_t* __re
   return mx;
 }
 
-// x modulo the period, as predict() wraps it (a coordinate already inside is returned as is).
-
 // Up to two closed intervals in [0, period] holding a set of wrapped coordinates.
 struct Intervals {
   float lo[2] = {0, 0}, hi[2] = {0, 0};
@@ -139,8 +137,8 @@ struct ModelEvaluator::Impl {
   std::size_t m = 0;
   std::array<double, kVariables> unit{};
   // Per input k and component: s = sqrt(log2(e) / (2 sigma^2)) and s * mu, so that
-  // (x s - s mu)^2 is the term of Eq. (9) in log2 units; base = log2 of w_m over the
-  // normalisation; the colour means in model units.
+  // (x s - s mu)^2 is the term of Eq. (10) in log2 units (log2_marginal_term); base = Eq. (9)'s
+  // log_weight_base in log2 units; the colour means of Eq. (8) in model units.
   std::array<std::vector<float>, kInputs> scale, offset;
   std::vector<float> base;
   std::array<std::vector<float>, 3> colour;
