@@ -53,6 +53,139 @@ DirectionSet get_directions(Reader& r, const char* what) {
   return DirectionSet(std::move(dirs));
 }
 
+// The header's fields after the magic bytes.
+struct Header {
+  std::uint32_t version = 0, flags = 0;
+  std::uint64_t payload = 0;
+};
+
+// Throws Error(kFormat) for an empty file or one that does not start with the magic bytes
+// (naming what it is where it is a known image).
+void check_magic(std::span<const std::uint8_t> bytes, const std::string& name) {
+  if (bytes.empty())
+    throw Error(Error::Kind::kFormat,
+                fmt::format("model file '{}' is empty (0 bytes); fit the model again", name));
+  if (bytes.size() < 8 || std::memcmp(bytes.data(), kMagic, 8) != 0) {
+    std::string what = "it does not start with the btfgmm magic bytes";
+    if (bytes.size() >= 4 && bytes[0] == 0x89 && bytes[1] == 'P' && bytes[2] == 'N')
+      what = "it is a PNG image";
+    else if (bytes.size() >= 3 && bytes[0] == 0xFF && bytes[1] == 0xD8)
+      what = "it is a JPEG image";
+    throw Error(Error::Kind::kFormat,
+                fmt::format("'{}' is not a btfgmm model file: {}; give a .btfgmm file written "
+                            "by 'btfgmm fit'",
+                            name, what));
+  }
+}
+
+// The header, checked against the file: a version this btfgmm reads, the payload size, the
+// CRC-32 and known flags.
+Header read_header(std::span<const std::uint8_t> bytes, const std::string& name) {
+  if (bytes.size() < kHeaderBytes + kTrailerBytes)
+    throw Error(Error::Kind::kFormat,
+                fmt::format("model file '{}' is truncated ({} bytes, less than its header); "
+                            "fit or copy it again",
+                            name, bytes.size()));
+  Reader hr(bytes.subspan(8, kHeaderBytes - 8), "model file", name, "fit or copy it again");
+  Header h;
+  h.version = hr.get<std::uint32_t>("version");
+  h.flags = hr.get<std::uint32_t>("flags");
+  h.payload = hr.get<std::uint64_t>("payload size");
+  if (h.version > kModelFormatVersion)
+    throw Error(Error::Kind::kFormat,
+                fmt::format("model file '{}' has format version {}, newer than the version {} "
+                            "this btfgmm reads; use a newer btfgmm",
+                            name, h.version, kModelFormatVersion));
+  if (h.version == 0)
+    throw Error(Error::Kind::kFormat, fmt::format("model file '{}' has format version 0, "
+                                                  "which no btfgmm writes; it is corrupted",
+                                                  name));
+  if (h.payload != bytes.size() - kHeaderBytes - kTrailerBytes)
+    throw Error(Error::Kind::kFormat,
+                fmt::format("model file '{}' is {} bytes but its header says {}; it is "
+                            "truncated or has trailing data: fit or copy it again",
+                            name, bytes.size(), h.payload + kHeaderBytes + kTrailerBytes));
+  std::uint32_t stored_crc;
+  std::memcpy(&stored_crc, bytes.data() + bytes.size() - 4, 4);
+  const auto crc = std::uint32_t(crc32(0L, bytes.data(), uInt(bytes.size() - 4)));
+  if (crc != stored_crc)
+    throw Error(Error::Kind::kFormat,
+                fmt::format("model file '{}' is corrupted (CRC-32 {:08x}, stored {:08x}); "
+                            "copy or fit it again",
+                            name, crc, stored_crc));
+  if (h.flags > 1)
+    throw Error(Error::Kind::kFormat,
+                fmt::format("model file '{}' has unknown flags {:#x}", name, h.flags));
+  return h;
+}
+
+// The tile's size and origin and the sample format.
+void read_tile(Reader& r, BtfModel& m) {
+  const auto w = r.get<std::uint32_t>("width"), h = r.get<std::uint32_t>("height");
+  // The tile was cut from an image: no larger than the largest image read.
+  if (w < 1 || h < 1 || w > std::uint32_t(limits::kMaxImageSide) ||
+      h > std::uint32_t(limits::kMaxImageSide) ||
+      std::int64_t(w) * std::int64_t(h) > limits::kMaxImagePixels)
+    r.fail(fmt::format("tile size {}x{} is out of range", w, h));
+  m.width = int(w);
+  m.height = int(h);
+  m.origin.x = r.get<std::int32_t>("origin x");
+  m.origin.y = r.get<std::int32_t>("origin y");
+  if (m.origin.x < 0 || m.origin.y < 0 || m.origin.x > limits::kMaxImageSide - m.width ||
+      m.origin.y > limits::kMaxImageSide - m.height)
+    r.fail(fmt::format("the tile's origin ({}, {}) is outside any image", m.origin.x, m.origin.y));
+  m.origin.width = m.width;
+  m.origin.height = m.height;
+  const auto format = r.get<std::uint32_t>("sample format");
+  if (format > 2) r.fail(fmt::format("unknown sample format {}", format));
+  m.format = SampleFormat(format);
+}
+
+// How the model was fitted.
+void read_settings(Reader& r, FitSettings& s) {
+  s.components = r.get<std::uint32_t>("components requested");
+  s.max_iterations = r.get<std::uint32_t>("max iterations");
+  s.epsilon = r.get<double>("epsilon");
+  s.seed = r.get<std::uint64_t>("seed");
+  s.iterations = r.get<std::uint32_t>("iterations");
+  s.dropped = r.get<std::uint32_t>("dropped");
+  s.log_likelihood = r.get<double>("log-likelihood");
+}
+
+// The mixture's components and the mean BRDF, which must fill the rest of the payload.
+void read_components(Reader& r, BtfModel& m) {
+  const Precision p = m.precision;
+  const auto count = r.get<std::uint32_t>("components");
+  const std::size_t real_bytes = p == Precision::kF16 ? 2 : 4;
+  if (double(m.lights.size()) * double(m.views.size()) > double(r.remaining()))
+    r.fail(fmt::format("{} x {} directions need a larger mean BRDF than the file holds",
+                       m.lights.size(), m.views.size()));
+  const std::size_t expect = std::size_t(count) * (4 + 18 * real_bytes) +
+                             m.lights.size() * m.views.size() * 3 * real_bytes;
+  if (count == 0 || expect != r.remaining())
+    r.fail(fmt::format("{} components and {} x {} directions need {} more bytes, the file has {}",
+                       count, m.lights.size(), m.views.size(), expect, r.remaining()));
+  m.mixture.resize(count);
+  for (std::size_t k = 0; k < count; ++k) {
+    m.mixture.weight[k] = double(r.get<float>("weight"));
+    for (int n = 0; n < kVariables; ++n) m.mixture.mean[k][n] = r.real(p, "mean");
+    for (int n = 0; n < kVariables; ++n) {
+      const double sd = r.real(p, "sigma");
+      m.mixture.var[k][n] = sd * sd;
+    }
+    bool ok = m.mixture.weight[k] > 0.0 && std::isfinite(m.mixture.weight[k]);
+    for (int n = 0; n < kVariables; ++n)
+      ok = ok && std::isfinite(m.mixture.mean[k][n]) && m.mixture.var[k][n] > 0.0 &&
+           std::isfinite(m.mixture.var[k][n]);
+    if (!ok) r.fail(fmt::format("component {} has a non-finite or non-positive parameter", k));
+  }
+  m.mean_brdf.resize(m.lights.size() * m.views.size() * 3);
+  for (float& v : m.mean_brdf) {
+    v = float(r.real(p, "mean BRDF"));
+    if (!std::isfinite(v)) r.fail("the mean BRDF holds a non-finite value");
+  }
+}
+
 }  // namespace
 
 std::vector<std::uint8_t> serialize_model(const BtfModel& m) {
@@ -97,121 +230,21 @@ std::vector<std::uint8_t> serialize_model(const BtfModel& m) {
 }
 
 BtfModel deserialize_model(std::span<const std::uint8_t> bytes, const std::string& name) {
-  if (bytes.empty())
-    throw Error(Error::Kind::kFormat,
-                fmt::format("model file '{}' is empty (0 bytes); fit the model again", name));
-  if (bytes.size() < 8 || std::memcmp(bytes.data(), kMagic, 8) != 0) {
-    std::string what = "it does not start with the btfgmm magic bytes";
-    if (bytes.size() >= 4 && bytes[0] == 0x89 && bytes[1] == 'P' && bytes[2] == 'N')
-      what = "it is a PNG image";
-    else if (bytes.size() >= 3 && bytes[0] == 0xFF && bytes[1] == 0xD8)
-      what = "it is a JPEG image";
-    throw Error(Error::Kind::kFormat,
-                fmt::format("'{}' is not a btfgmm model file: {}; give a .btfgmm file written "
-                            "by 'btfgmm fit'",
-                            name, what));
-  }
-  if (bytes.size() < kHeaderBytes + kTrailerBytes)
-    throw Error(Error::Kind::kFormat,
-                fmt::format("model file '{}' is truncated ({} bytes, less than its header); "
-                            "fit or copy it again",
-                            name, bytes.size()));
-  Reader hr(bytes.subspan(8, kHeaderBytes - 8), "model file", name, "fit or copy it again");
-  const auto version = hr.get<std::uint32_t>("version");
-  const auto flags = hr.get<std::uint32_t>("flags");
-  const auto payload = hr.get<std::uint64_t>("payload size");
-  if (version > kModelFormatVersion)
-    throw Error(Error::Kind::kFormat,
-                fmt::format("model file '{}' has format version {}, newer than the version {} "
-                            "this btfgmm reads; use a newer btfgmm",
-                            name, version, kModelFormatVersion));
-  if (version == 0)
-    throw Error(Error::Kind::kFormat, fmt::format("model file '{}' has format version 0, "
-                                                  "which no btfgmm writes; it is corrupted",
-                                                  name));
-  if (payload != bytes.size() - kHeaderBytes - kTrailerBytes)
-    throw Error(Error::Kind::kFormat,
-                fmt::format("model file '{}' is {} bytes but its header says {}; it is "
-                            "truncated or has trailing data: fit or copy it again",
-                            name, bytes.size(), payload + kHeaderBytes + kTrailerBytes));
-  std::uint32_t stored_crc;
-  std::memcpy(&stored_crc, bytes.data() + bytes.size() - 4, 4);
-  const auto crc = std::uint32_t(crc32(0L, bytes.data(), uInt(bytes.size() - 4)));
-  if (crc != stored_crc)
-    throw Error(Error::Kind::kFormat,
-                fmt::format("model file '{}' is corrupted (CRC-32 {:08x}, stored {:08x}); "
-                            "copy or fit it again",
-                            name, crc, stored_crc));
-  if (flags > 1)
-    throw Error(Error::Kind::kFormat,
-                fmt::format("model file '{}' has unknown flags {:#x}", name, flags));
-
+  check_magic(bytes, name);
+  const Header header = read_header(bytes, name);
   BtfModel m;
-  m.precision = Precision(flags);
-  const Precision p = m.precision;
-  Reader r(bytes.subspan(kHeaderBytes, std::size_t(payload)), "model file", name,
+  m.precision = Precision(header.flags);
+  Reader r(bytes.subspan(kHeaderBytes, std::size_t(header.payload)), "model file", name,
            "fit the model again");
-  const auto w = r.get<std::uint32_t>("width"), h = r.get<std::uint32_t>("height");
-  // The tile was cut from an image: no larger than the largest image read.
-  if (w < 1 || h < 1 || w > std::uint32_t(limits::kMaxImageSide) ||
-      h > std::uint32_t(limits::kMaxImageSide) ||
-      std::int64_t(w) * std::int64_t(h) > limits::kMaxImagePixels)
-    r.fail(fmt::format("tile size {}x{} is out of range", w, h));
-  m.width = int(w);
-  m.height = int(h);
-  m.origin.x = r.get<std::int32_t>("origin x");
-  m.origin.y = r.get<std::int32_t>("origin y");
-  if (m.origin.x < 0 || m.origin.y < 0 || m.origin.x > limits::kMaxImageSide - m.width ||
-      m.origin.y > limits::kMaxImageSide - m.height)
-    r.fail(fmt::format("the tile's origin ({}, {}) is outside any image", m.origin.x, m.origin.y));
-  m.origin.width = m.width;
-  m.origin.height = m.height;
-  const auto format = r.get<std::uint32_t>("sample format");
-  if (format > 2) r.fail(fmt::format("unknown sample format {}", format));
-  m.format = SampleFormat(format);
+  read_tile(r, m);
   m.lights = get_directions(r, "light directions");
   m.views = get_directions(r, "view directions");
   for (double& u : m.scaling.unit) {
     u = r.get<double>("variable unit");
     if (!(u > 0.0) || !std::isfinite(u)) r.fail(fmt::format("variable unit {} is not positive", u));
   }
-  FitSettings& s = m.settings;
-  s.components = r.get<std::uint32_t>("components requested");
-  s.max_iterations = r.get<std::uint32_t>("max iterations");
-  s.epsilon = r.get<double>("epsilon");
-  s.seed = r.get<std::uint64_t>("seed");
-  s.iterations = r.get<std::uint32_t>("iterations");
-  s.dropped = r.get<std::uint32_t>("dropped");
-  s.log_likelihood = r.get<double>("log-likelihood");
-  const auto count = r.get<std::uint32_t>("components");
-  const std::size_t real_bytes = p == Precision::kF16 ? 2 : 4;
-  if (double(m.lights.size()) * double(m.views.size()) > double(r.remaining()))
-    r.fail(fmt::format("{} x {} directions need a larger mean BRDF than the file holds",
-                       m.lights.size(), m.views.size()));
-  const std::size_t expect = std::size_t(count) * (4 + 18 * real_bytes) +
-                             m.lights.size() * m.views.size() * 3 * real_bytes;
-  if (count == 0 || expect != r.remaining())
-    r.fail(fmt::format("{} components and {} x {} directions need {} more bytes, the file has {}",
-                       count, m.lights.size(), m.views.size(), expect, r.remaining()));
-  m.mixture.resize(count);
-  for (std::size_t k = 0; k < count; ++k) {
-    m.mixture.weight[k] = double(r.get<float>("weight"));
-    for (int n = 0; n < kVariables; ++n) m.mixture.mean[k][n] = r.real(p, "mean");
-    for (int n = 0; n < kVariables; ++n) {
-      const double sd = r.real(p, "sigma");
-      m.mixture.var[k][n] = sd * sd;
-    }
-    bool ok = m.mixture.weight[k] > 0.0 && std::isfinite(m.mixture.weight[k]);
-    for (int n = 0; n < kVariables; ++n)
-      ok = ok && std::isfinite(m.mixture.mean[k][n]) && m.mixture.var[k][n] > 0.0 &&
-           std::isfinite(m.mixture.var[k][n]);
-    if (!ok) r.fail(fmt::format("component {} has a non-finite or non-positive parameter", k));
-  }
-  m.mean_brdf.resize(m.lights.size() * m.views.size() * 3);
-  for (float& v : m.mean_brdf) {
-    v = float(r.real(p, "mean BRDF"));
-    if (!std::isfinite(v)) r.fail("the mean BRDF holds a non-finite value");
-  }
+  read_settings(r, m.settings);
+  read_components(r, m);
   return m;
 }
 

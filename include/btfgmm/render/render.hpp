@@ -35,6 +35,9 @@
 #include "btfgmm/io/image.hpp"
 #include "btfgmm/model/model.hpp"
 #include "btfgmm/model/predict.hpp"
+#include "btfgmm/render/data_evaluator.hpp"
+#include "btfgmm/render/fast_interpolation.hpp"
+#include "btfgmm/render/model_evaluator.hpp"
 
 namespace btfgmm {
 
@@ -157,81 +160,9 @@ SurfaceBuffer rasterize(const Mesh& mesh, const Camera& camera, const Light& lig
 
 // ---- 2. evaluators ------------------------------------------------------------------------
 
-// How much work an evaluation did (for the data: pixel reads, 36 a point).
-struct EvaluationStats {
-  std::uint64_t points = 0;
-  std::uint64_t nominal = 0;    // points x M: what evaluating every component costs
-  std::uint64_t evaluated = 0;  // component evaluations actually done
-  double seconds = 0.0;
-};
-
-// The model, Eq. (8)-(11), for many points at once (docs/RENDERING.md, "The kernel"): per
-// group of up to kGroup points, every component's log weight (Eq. 9) is bounded over the
-// group's box of inputs; a component is skipped when the bound proves that all skipped
-// components together change no point's colour by more than `tolerance` levels. The others
-// are evaluated in float with a vectorised exp2: the colour equals predict()'s within
-// tolerance + 1e-3 levels. Points close together (a screen block) make tight boxes.
-class ModelEvaluator {
- public:
-  explicit ModelEvaluator(const BtfModel& model, double tolerance = 0.1);
-  ~ModelEvaluator();
-  ModelEvaluator(ModelEvaluator&&) noexcept;
-  ModelEvaluator& operator=(ModelEvaluator&&) noexcept;
-
-  static constexpr std::size_t kGroup = 256;
-
-  // RGB (levels of the data's scale, 3 floats a point) of every point. Points with x, y
-  // outside the tile are wrapped (as predict() does). `groups`: where each group of points
-  // begins, ascending, each group at most kGroup points (SurfaceBuffer::block_start); empty:
-  // consecutive groups of kGroup.
-  EvaluationStats evaluate(std::span<const SurfacePoint> points, std::span<float> rgb,
-                           std::span<const std::uint32_t> groups = {}) const;
-  std::size_t components() const;
-
-  struct Impl;
-
- private:
-  std::unique_ptr<Impl> impl_;
-};
-
-// The measured data: bilinear between the four nearest pixels (the tile wraps), and over the
-// measured directions with DirectionInterpolator's weights (3 lights x 3 views). It keeps a
-// reference to `btf`, which must outlive it.
-class DataEvaluator {
- public:
-  explicit DataEvaluator(const Btf& btf);
-  ~DataEvaluator();
-  DataEvaluator(DataEvaluator&&) noexcept;
-  DataEvaluator& operator=(DataEvaluator&&) noexcept;
-
-  EvaluationStats evaluate(std::span<const SurfacePoint> points, std::span<float> rgb) const;
-
-  struct Impl;
-
- private:
-  std::unique_ptr<Impl> impl_;
-};
-
-// DirectionInterpolator's weights, the same numbers, found through a grid over the disk
-// instead of a scan over every triangle (for millions of look-ups).
-class FastDirectionInterpolator {
- public:
-  explicit FastDirectionInterpolator(const DirectionSet& set);
-  DirectionInterpolator::Weights weights(const Vec3& v) const;
-  // The same, trying first the triangle `hint` (set to the triangle used, or to a value past
-  // the triangles where none was): for coherent queries such as neighbouring pixels.
-  DirectionInterpolator::Weights weights(const Vec3& v, std::uint32_t& hint) const;
-
- private:
-  DirectionInterpolator::Weights weights_at(double qx, double qy, std::uint32_t* hint) const;
-
-  DirectionInterpolator slow_;  // used where the set has no triangle
-  std::vector<std::array<double, 2>> points_;
-  std::vector<std::array<std::uint32_t, 3>> triangles_;
-  std::vector<std::array<std::uint32_t, 2>> hull_edges_;
-  int grid_ = 0;
-  std::vector<std::uint32_t> cell_start_, cell_triangles_;
-};
+// EvaluationStats and ModelEvaluator: btfgmm/render/model_evaluator.hpp; DataEvaluator:
+// btfgmm/render/data_evaluator.hpp; FastDirectionInterpolator:
+// btfgmm/render/fast_interpolation.hpp (all included above).
 
 // ---- 3. composing images ------------------------------------------------------------------
 

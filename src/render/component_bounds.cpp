@@ -1,0 +1,134 @@
+// The render kernel's culling (docs/RENDERING.md, "The kernel", steps 2): per block of points,
+// bounds of every component's log weight (Eq. 9) over the block's box of inputs, and the
+// components whose skipping the bounds prove to change no colour by more than the tolerance.
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdint>
+#include <limits>
+
+#include "render/model_kernel.hpp"
+
+namespace btfgmm::detail {
+
+// Per component, an upper and a lower bound of its log2 weight (Eq. 9, log2 units) over a
+// box of inputs: x and y as up to two intervals each, the four angles as intervals.
+// Vectorised over the components, one input at a time, in float with a margin for rounding.
+void bound_log_weights(const ModelEvaluator::Impl& k, const Intervals& bx, const Intervals& by,
+                       const std::array<float, kInputs>& lo, const std::array<float, kInputs>& hi,
+                       float* __restrict upper, float* __restrict lower,
+                       float* __restrict magnitude) {
+  const std::size_t M = k.m;
+  for (std::size_t j = 0; j < M; ++j) {
+    upper[j] = lower[j] = k.base[j];
+    magnitude[j] = 0.0f;
+  }
+  for (int d = 0; d < kInputs; ++d) {
+    Intervals iv;
+    if (d == 0) iv = bx;
+    if (d == 1) iv = by;
+    if (d >= 2) iv.lo[0] = lo[std::size_t(d)], iv.hi[0] = hi[std::size_t(d)];
+    const float* __restrict mean = k.mean_f[std::size_t(d)].data();
+    const float* __restrict sc2 = k.scale2_f[std::size_t(d)].data();
+    const float a0 = iv.lo[0], b0 = iv.hi[0];
+    const float a1 = iv.count == 2 ? iv.lo[1] : a0, b1 = iv.count == 2 ? iv.hi[1] : b0;
+    float* __restrict mag = magnitude;
+#pragma omp simd
+    for (std::size_t j = 0; j < M; ++j) {
+      const float mu = mean[j];
+      const float n0 = std::max(std::max(a0 - mu, mu - b0), 0.0f);
+      const float n1 = std::max(std::max(a1 - mu, mu - b1), 0.0f);
+      const float f0 = std::max(std::abs(mu - a0), std::abs(mu - b0));
+      const float f1 = std::max(std::abs(mu - a1), std::abs(mu - b1));
+      const float dmin = std::min(n0, n1), dmax = std::max(f0, f1);
+      const float far = dmax * dmax * sc2[j];
+      upper[j] -= dmin * dmin * sc2[j];
+      lower[j] -= far;
+      mag[j] += far;
+    }
+  }
+  // Rounding of the inputs, of these sums and of the kernel's float arithmetic.
+  const float* __restrict mag = magnitude;
+#pragma omp simd
+  for (std::size_t j = 0; j < M; ++j) {
+    const float margin = 1e-3f + 4e-6f * (mag[j] + std::abs(k.base[j]));
+    upper[j] += margin;
+    lower[j] -= margin;
+  }
+}
+
+// The components a block needs (their indices into `keep`, returning how many), r = the
+// largest upper bound kept, and Lmax, a lower bound of every point's largest log2 weight t*:
+// the larger of max_m lower_m and, over the points, the smallest of the exact log weights of
+// the four components with the largest upper bounds. A component may be skipped while the
+// skipped set's sum of 2^(upper_m - Lmax) stays within the budget: its normalised weight at
+// any point is below 2^(upper_m - Lmax). The sum is taken a whole log2 unit of
+// (Lmax - upper) at a time, from the farthest components in.
+std::size_t select_components(const ModelEvaluator::Impl& k, const BlockInputs& in, int n,
+                              const float* __restrict upper, const float* __restrict lower,
+                              std::uint32_t* __restrict keep, std::int32_t* __restrict bucket,
+                              double& r, double& lmax) {
+  const std::size_t M = k.m;
+  float lm = -std::numeric_limits<float>::infinity(), um = lm;
+#pragma omp simd reduction(max : lm, um)
+  for (std::size_t j = 0; j < M; ++j) {
+    lm = std::max(lm, lower[j]);
+    um = std::max(um, upper[j]);
+  }
+  // The exact log weights, at every point, of the components with the largest upper and
+  // lower bounds: the smaller over the points of their larger is a lower bound of t*.
+  std::array<std::size_t, 2> best_j{0, 0};
+  for (std::size_t j = 0; j < M; ++j)
+    if (upper[j] == um) {
+      best_j[0] = j;
+      break;
+    }
+  for (std::size_t j = 0; j < M; ++j)
+    if (lower[j] == lm) {
+      best_j[1] = j;
+      break;
+    }
+  float exact = std::numeric_limits<float>::infinity();
+  for (int i = 0; i < n; ++i) {
+    float best = -std::numeric_limits<float>::infinity();
+    for (std::size_t j : best_j) {
+      float t = k.base[j];
+      for (int d = 0; d < kInputs; ++d) {
+        const float e = in.x[d][i] * k.scale[std::size_t(d)][j] - k.offset[std::size_t(d)][j];
+        t -= e * e;
+      }
+      best = std::max(best, t);
+    }
+    exact = std::min(exact, best);
+  }
+  lmax = std::max(double(lm), double(exact) - 1e-3 - 4e-6 * std::abs(double(exact)));
+  // Buckets of g = Lmax - upper by whole log2 units: -1 for g < 0 (always kept), 63 for
+  // everything beyond; a component in bucket b >= 0 has 2^-g <= 2^-b.
+  const float lf = float(lmax);
+#pragma omp simd
+  for (std::size_t j = 0; j < M; ++j) {
+    const float g = lf - upper[j];
+    bucket[j] = g < 0.0f ? -1 : std::int32_t(std::min(g, 63.0f));
+  }
+  std::array<std::uint32_t, 65> count{};
+  for (std::size_t j = 0; j < M; ++j) ++count[std::size_t(bucket[j] + 1)];
+  double used = 0.0;
+  int stop = 63;  // buckets above `stop` are skipped
+  for (; stop >= 0; --stop) {
+    const double mass = double(count[std::size_t(stop + 1)]) * std::exp2(-double(stop));
+    if (used + mass > k.budget) break;
+    used += mass;
+  }
+  std::size_t kept = 0;
+  float rf = -std::numeric_limits<float>::infinity();
+  for (std::size_t j = 0; j < M; ++j) {
+    const bool take = bucket[j] <= stop;
+    keep[kept] = std::uint32_t(j);
+    kept += take;
+    rf = std::max(rf, take ? upper[j] : rf);
+  }
+  r = rf;
+  return kept;
+}
+
+}  // namespace btfgmm::detail
