@@ -1,5 +1,6 @@
-// BTF data sets on disk: discovering the images of a folder or a Bonn zip, reading a tile,
-// writing the UTIA layout.
+// BTF data sets on disk: discovering the images of a folder or a Bonn zip, reading a tile.
+// Image names are parsed by btfgmm/io/image_names.hpp; the UTIA layout is written by
+// btfgmm/io/utia.hpp (both included here).
 //
 // Names understood (angles in degrees, whole or with a fraction such as tl023.5):
 //   UTIA, nested:  tv000_pv000/tl000_pl000_tv000_pv000.png   (also .jpg, .exr)
@@ -19,6 +20,8 @@
 
 #include "btfgmm/core/btf.hpp"
 #include "btfgmm/io/image.hpp"
+#include "btfgmm/io/image_names.hpp"
+#include "btfgmm/io/utia.hpp"
 
 namespace btfgmm {
 
@@ -29,17 +32,6 @@ enum class Layout {
   kBonnZip,     // Bonn names inside a .zip
 };
 std::string to_string(Layout l);
-
-// The angles a file name carries.
-struct ParsedName {
-  Direction light, view;
-  std::optional<long> index;  // the Bonn image index, when present
-};
-// Parse the file name part (no folders) of an image name. Throws Error(kFormat) naming the
-// file and the expected pattern.
-ParsedName parse_image_name(const std::string& file_name);
-// The UTIA name of an image: tl000_pl000_tv000_pv000 (angles with one decimal if fractional).
-std::string utia_image_stem(const Direction& light, const Direction& view);
 
 struct BtfInfo {
   std::filesystem::path path;
@@ -72,11 +64,5 @@ class BtfSource {
   BtfInfo info_;
   std::vector<std::string> names_;  // light-major, as Btf::image_index
 };
-
-// Write a BTF in the nested UTIA layout under `folder` (created if needed):
-// tv000_pv000/tl000_pl000_tv000_pv000.png for 8-bit data, .exr for HDR (or as forced by
-// `format`). Each file is written under a temporary name and renamed.
-void write_utia(const Btf& btf, const std::filesystem::path& folder,
-                std::optional<ImageFormat> format = std::nullopt);
 
 }  // namespace btfgmm

@@ -8,15 +8,21 @@
 #include <span>
 #include <vector>
 
+#include "btfgmm/core/error.hpp"
+
 namespace btfgmm {
 
 // Writes `bytes` to a temporary file beside `path`, fsyncs it and renames it onto `path`: an
 // interrupted or failed write never leaves a partial file under that name. Throws Error(kIo)
-// naming `what` and the path.
+// naming `what` and the path (and the folder, when it does not exist).
 void write_file_atomically(const std::filesystem::path& path, std::span<const std::uint8_t> bytes,
                            const char* what);
-// The whole file, its size first checked against the memory; Error(kIo) naming `what` and the
-// path if it cannot be read.
-std::vector<std::uint8_t> read_whole_file(const std::filesystem::path& path, const char* what);
+// The whole file, its size first checked against the memory. Error(kIo) naming `what`, the
+// path and the system's reason if it cannot be read; a file larger than the memory is refused
+// with Error(`too_large_kind`) saying `too_large_fix`.
+std::vector<std::uint8_t> read_whole_file(
+    const std::filesystem::path& path, const char* what,
+    const char* too_large_fix = "it is not a file btfgmm wrote; give the right file",
+    Error::Kind too_large_kind = Error::Kind::kFormat);
 
 }  // namespace btfgmm
