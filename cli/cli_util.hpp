@@ -1,5 +1,5 @@
-// Small helpers shared by the btfgmm subcommands: parsing of angle pairs and tiles, byte
-// counts for people, output-folder checks.
+// Small helpers shared by the btfgmm subcommands: parsing of angle pairs and sizes, output
+// file and folder checks, JSON of direction sets and fit settings.
 #pragma once
 
 #include <fcntl.h>
@@ -18,34 +18,11 @@
 #include <vector>
 
 #include "btfgmm/btfgmm.hpp"
+#include "btfgmm/core/parse.hpp"
 #include "btfgmm/core/text.hpp"
 #include "btfgmm/model/model.hpp"
 
 namespace btfgmm::cli {
-
-inline std::vector<double> parse_numbers(const std::string& text, const std::string& option,
-                                         std::size_t count, const std::string& example) {
-  std::vector<double> out;
-  std::size_t start = 0;
-  while (start <= text.size()) {
-    const std::size_t comma = std::min(text.find(',', start), text.size());
-    const std::string item = text.substr(start, comma - start);
-    double v = 0;
-    const auto r = std::from_chars(item.data(), item.data() + item.size(), v);
-    if (item.empty() || r.ec != std::errc() || r.ptr != item.data() + item.size() ||
-        !std::isfinite(v))
-      throw Error(Error::Kind::kArgument,
-                  fmt::format("{} '{}': '{}' is not a finite number; write it like {}", option,
-                              text, item, example));
-    out.push_back(v);
-    start = comma + 1;
-  }
-  if (out.size() != count)
-    throw Error(Error::Kind::kArgument,
-                fmt::format("{} '{}' needs {} numbers separated by commas, like {}", option, text,
-                            count, example));
-  return out;
-}
 
 // "THETA,PHI" in degrees, theta in [0, 90].
 inline Direction parse_direction(const std::string& text, const std::string& option) {
@@ -58,19 +35,6 @@ inline Direction parse_direction(const std::string& text, const std::string& opt
   double phi = std::fmod(v[1], 360.0);
   if (phi < 0) phi += 360.0;
   return {v[0], phi};
-}
-
-// "X,Y,W,H".
-inline Tile parse_tile(const std::string& text) {
-  const auto v = parse_numbers(text, "--tile", 4, "0,0,25,25 (x,y,width,height in pixels)");
-  for (double d : v)
-    if (d != std::floor(d) || std::abs(d) > 1e9)
-      throw Error(Error::Kind::kArgument,
-                  fmt::format("--tile '{}' needs whole pixel numbers, like 0,0,25,25", text));
-  if (v[2] < 1 || v[3] < 1 || v[0] < 0 || v[1] < 0)
-    throw Error(Error::Kind::kArgument,
-                fmt::format("--tile '{}': x, y must be >= 0 and width, height >= 1", text));
-  return {int(v[0]), int(v[1]), int(v[2]), int(v[3])};
 }
 
 // "N" or "WxH".

@@ -1,13 +1,15 @@
 // btfgmm fit, decode and eval.
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <atomic>
 #include <csignal>
-#include <optional>
-
+#include <cstdlib>
 #include <filesystem>
 #include <iostream>
 #include <memory>
+#include <optional>
+#include <string>
 
 #include "btfgmm/btfgmm.hpp"
 #include "btfgmm/core/text.hpp"
@@ -21,8 +23,6 @@
 
 namespace btfgmm::cli {
 namespace {
-
-namespace fs = std::filesystem;
 
 // ---- fit ---------------------------------------------------------------------------------
 
@@ -44,115 +44,121 @@ extern "C" void on_stop_signal(int) {
   g_stop.store(true);
 }
 
-void run_fit(FitOptions o) {
-  std::optional<btfgmm::FitCheckpoint> resumed;
-  btfgmm::Tile tile;
-  if (!o.resume.empty()) {
-    // Everything comes from the checkpoint; the output it names is this fit's own.
-    resumed = btfgmm::load_checkpoint(o.resume);
-    o.input = resumed->input;
-    o.out = resumed->output;
-    o.components = resumed->components;
-    o.seed = resumed->seed;
-    o.iterations = resumed->max_iterations;
-    o.epsilon = resumed->epsilon;
-    o.precision = resumed->precision == btfgmm::Precision::kF16 ? "f16" : "f32";
-    o.overwrite = true;
-    if (o.checkpoint.empty()) o.checkpoint = o.resume;
-  } else if (o.input.empty() || o.out.empty()) {
+// While it lives, SIGINT and SIGTERM stop the fit (g_stop) instead of ending the process.
+class StopOnSignals {
+ public:
+  StopOnSignals() {
+    g_stop.store(false);
+    std::signal(SIGINT, on_stop_signal);
+    std::signal(SIGTERM, on_stop_signal);
+  }
+  ~StopOnSignals() {
+    std::signal(SIGINT, SIG_DFL);
+    std::signal(SIGTERM, SIG_DFL);
+  }
+  StopOnSignals(const StopOnSignals&) = delete;
+  StopOnSignals& operator=(const StopOnSignals&) = delete;
+};
+
+btfgmm::Precision parse_precision(const std::string& text) {
+  if (text == "f32") return btfgmm::Precision::kF32;
+  if (text == "f16") return btfgmm::Precision::kF16;
+  throw Error(Error::Kind::kArgument, fmt::format("--precision '{}': give f32 or f16", text));
+}
+
+// A new fit, as the options ask.
+btfgmm::FitRequest new_fit_request(const FitOptions& o) {
+  if (o.input.empty() || o.out.empty())
     throw Error(Error::Kind::kArgument,
                 "fit needs an input BTF and -o MODEL (or --resume CHECKPOINT to continue an "
                 "interrupted fit)");
-  }
-  if (o.precision != "f32" && o.precision != "f16")
-    throw Error(Error::Kind::kArgument,
-                fmt::format("--precision '{}': give f32 or f16", o.precision));
-  check_output_file(o.out, o.overwrite);
-  if (!o.checkpoint.empty()) check_output_file(o.checkpoint, true);
-  const auto t0 = Clock::now();
-  const btfgmm::BtfSource src = btfgmm::BtfSource::open(o.input);
-  tile = resumed ? resumed->tile : tile_option(src, o.tile, o.quiet);  // X,Y,W,H or auto:WxH
-  const btfgmm::Btf btf = src.load(tile);
-  const std::uint64_t fingerprint = btfgmm::btf_fingerprint(btf);
-  if (resumed && resumed->data_fingerprint != fingerprint)
-    throw Error(Error::Kind::kArgument,
-                fmt::format("the data in '{}' is not what checkpoint '{}' was fitted to (it "
-                            "changed since); resume with the original data or fit again",
-                            o.input, o.resume));
+  btfgmm::FitRequest r;
+  r.input = o.input;
+  r.output = o.out;
+  r.config.components = o.components;
+  r.config.seed = o.seed;
+  r.config.em.max_iterations = o.iterations;
+  r.config.em.epsilon = o.epsilon;
+  r.precision = parse_precision(o.precision);
+  r.checkpoint = o.checkpoint;
+  return r;
+}
+
+// A new fit or, with --resume, the interrupted one continued: everything (the output
+// included) from its checkpoint, which keeps the state unless --checkpoint names another.
+btfgmm::FitRequest fit_request(const FitOptions& o) {
+  btfgmm::FitRequest r = o.resume.empty() ? new_fit_request(o) : btfgmm::resume_request(o.resume);
+  if (r.resume && !o.checkpoint.empty()) r.checkpoint = o.checkpoint;
+  r.checkpoint_every = o.checkpoint_every;
+  r.config.em.threads = o.threads;
+  r.config.em.stop = &g_stop;
+  return r;
+}
+
+// --tile X,Y,W,H or auto:WxH: the data is opened here for the search, and the fit reads it.
+void choose_fit_tile(btfgmm::FitRequest& r, const std::string& tile, bool quiet) {
+  if (r.resume || tile.empty()) return;  // a resume fits the checkpoint's tile
+  auto src = std::make_shared<const btfgmm::BtfSource>(btfgmm::BtfSource::open(r.input));
+  r.tile = tile_option(*src, tile, quiet);
+  r.source = std::move(src);
+}
+
+void print_loaded(const btfgmm::Btf& btf, double seconds) {
   const std::size_t n = btf.image_count() * std::size_t(btf.width()) * btf.height();
-  if (!o.quiet)
-    fmt::print(stderr,
-               "loaded {}x{} pixels at ({}, {}) x {} lights x {} views = {} samples in {}\n",
-               btf.width(), btf.height(), btf.origin().x, btf.origin().y, btf.lights().size(),
-               btf.views().size(), n, human_seconds(seconds_since(t0)));
-  btfgmm::FitConfig c;
-  c.components = o.components;
-  c.seed = o.seed;
-  c.em.max_iterations = o.iterations;
-  c.em.epsilon = o.epsilon;
-  c.em.threads = o.threads;
-  c.em.stop = &g_stop;
-  const int first = resumed ? resumed->state.result.iterations : 0;
-  if (resumed && !o.quiet)
-    fmt::print(stderr, "resuming from {} after iteration {}\n", o.resume, first);
-  auto progress = [&](const btfgmm::EmProgress& p) {
-    if (o.quiet) return;
-    const double per = p.seconds / std::max(1, p.iteration - first);
-    fmt::print(stderr,
-               "iteration {:>3}/{}  L = {:.6f}  gain {:+.2e}  components {} ({} dropped)  {}  "
-               "ETA {}\n",
-               p.iteration, p.max_iterations, p.log_likelihood, p.relative_gain, p.components,
-               p.dropped, human_seconds(p.seconds),
-               human_seconds(per * (p.max_iterations - p.iteration)));
-  };
-  auto checkpoint_of = [&](const btfgmm::ProductMixture& mix, const btfgmm::EmResult& r) {
-    btfgmm::FitCheckpoint k;
-    k.input = o.input;
-    k.output = o.out;
-    k.tile = btf.origin();
-    k.components = o.components;
-    k.seed = o.seed;
-    k.max_iterations = o.iterations;
-    k.epsilon = o.epsilon;
-    k.precision = o.precision == "f16" ? btfgmm::Precision::kF16 : btfgmm::Precision::kF32;
-    k.data_fingerprint = fingerprint;
-    k.state = {mix, r};
-    return k;
-  };
-  auto after_iteration = [&](const btfgmm::ProductMixture& mix, const btfgmm::EmResult& r) {
-    if (!o.checkpoint.empty() && r.iterations % std::max(1, o.checkpoint_every) == 0)
-      btfgmm::save_checkpoint(checkpoint_of(mix, r), o.checkpoint);
-  };
-  g_stop.store(false);
-  std::signal(SIGINT, on_stop_signal);
-  std::signal(SIGTERM, on_stop_signal);
-  btfgmm::FitState state;
-  btfgmm::BtfModel model = btfgmm::fit_model(btf, c, progress, resumed ? &resumed->state : nullptr,
-                                             after_iteration, &state);
-  std::signal(SIGINT, SIG_DFL);
-  std::signal(SIGTERM, SIG_DFL);
-  if (state.result.interrupted) {
-    const std::string path = o.checkpoint.empty() ? o.out + ".ckpt" : o.checkpoint;
-    btfgmm::save_checkpoint(checkpoint_of(state.mixture, state.result), path);
-    fmt::print(stderr,
-               "interrupted after iteration {} of {}; nothing is lost: the fit's state is in "
-               "{}\ncontinue with: btfgmm fit --resume {}\n",
-               state.result.iterations, o.iterations, path, path);
-    std::exit(130);
-  }
-  model.precision = o.precision == "f16" ? btfgmm::Precision::kF16 : btfgmm::Precision::kF32;
-  btfgmm::save_model(model, o.out);
-  if (!o.checkpoint.empty()) {
-    std::error_code ec;
-    fs::remove(o.checkpoint, ec);  // the fit is complete: the model holds its result
-  }
-  const std::uint64_t bytes = fs::file_size(o.out);
+  fmt::print(stderr, "loaded {}x{} pixels at ({}, {}) x {} lights x {} views = {} samples in {}\n",
+             btf.width(), btf.height(), btf.origin().x, btf.origin().y, btf.lights().size(),
+             btf.views().size(), n, human_seconds(seconds));
+}
+
+// One EM iteration; the time left is estimated from the iterations since `first`.
+void print_iteration(const btfgmm::EmProgress& p, int first) {
+  const double per = p.seconds / std::max(1, p.iteration - first);
+  fmt::print(stderr,
+             "iteration {:>3}/{}  L = {:.6f}  gain {:+.2e}  components {} ({} dropped)  {}  "
+             "ETA {}\n",
+             p.iteration, p.max_iterations, p.log_likelihood, p.relative_gain, p.components,
+             p.dropped, human_seconds(p.seconds),
+             human_seconds(per * (p.max_iterations - p.iteration)));
+}
+
+void print_written(const std::string& out, const btfgmm::FitOutcome& fit) {
+  const btfgmm::BtfModel& model = fit.model;
   fmt::print(stderr,
              "wrote {}: M = {} ({} dropped), L = {:.6f}, {} bytes, compression 1:{:.1f} "
              "(paper's count) / 1:{:.1f} (file), fit in {}\n",
-             o.out, model.mixture.size(), model.settings.dropped, model.settings.log_likelihood,
-             bytes, model.compression_ratio_paper(), model.compression_ratio_file(bytes),
-             human_seconds(model.settings.seconds));
+             out, model.mixture.size(), model.settings.dropped, model.settings.log_likelihood,
+             fit.file_bytes, model.compression_ratio_paper(),
+             model.compression_ratio_file(fit.file_bytes), human_seconds(model.settings.seconds));
+}
+
+void run_fit(const FitOptions& o) {
+  btfgmm::FitRequest r = fit_request(o);
+  check_output_file(r.output, o.overwrite || r.resume);
+  if (!r.checkpoint.empty()) check_output_file(r.checkpoint, true);
+  const auto t0 = Clock::now();
+  choose_fit_tile(r, o.tile, o.quiet);
+  const int first = r.resume ? r.resume->checkpoint.state.result.iterations : 0;
+  std::optional<StopOnSignals> stop_on_signals;
+  btfgmm::FitObserver observer;
+  observer.started = [&](const btfgmm::Btf& btf) {
+    if (!o.quiet) print_loaded(btf, seconds_since(t0));
+    if (r.resume && !o.quiet)
+      fmt::print(stderr, "resuming from {} after iteration {}\n", r.resume->path, first);
+    stop_on_signals.emplace();
+  };
+  observer.iteration = [&](const btfgmm::EmProgress& p) {
+    if (!o.quiet) print_iteration(p, first);
+  };
+  const btfgmm::FitOutcome fit = btfgmm::run_fit(r, observer);
+  stop_on_signals.reset();
+  if (fit.interrupted) {
+    fmt::print(stderr,
+               "interrupted after iteration {} of {}; nothing is lost: the fit's state is in "
+               "{}\ncontinue with: btfgmm fit --resume {}\n",
+               fit.iterations, r.config.em.max_iterations, fit.checkpoint, fit.checkpoint);
+    std::exit(130);
+  }
+  print_written(r.output, fit);
 }
 
 // ---- decode ------------------------------------------------------------------------------
@@ -214,9 +220,9 @@ void run_eval(const EvalOptions& o) {
   }
 }
 
-}  // namespace
+// ---- the subcommands ---------------------------------------------------------------------
 
-void register_model_commands(CLI::App& app, Commands& commands) {
+void register_fit(CLI::App& app, Commands& commands) {
   auto fit = std::make_shared<FitOptions>();
   auto* f = app.add_subcommand("fit", "Fit the Gaussian mixture model to a BTF tile");
   f->add_option("input", fit->input, "A BTF folder or Bonn .zip");
@@ -255,7 +261,9 @@ void register_model_commands(CLI::App& app, Commands& commands) {
   f->add_flag("-q,--quiet", fit->quiet, "No progress on stderr");
 
   commands.push_back({f, [fit] { run_fit(*fit); }});
+}
 
+void register_decode(CLI::App& app, Commands& commands) {
   auto dec = std::make_shared<DecodeOptions>();
   auto* d = app.add_subcommand("decode", "Decode a model into images (UTIA layout)");
   d->add_option("model", dec->model, "A .btfgmm model")->required();
@@ -275,7 +283,9 @@ void register_model_commands(CLI::App& app, Commands& commands) {
   d->add_flag("--overwrite", dec->overwrite, "Replace images in a non-empty output folder");
 
   commands.push_back({d, [dec] { run_decode(*dec); }});
+}
 
+void register_eval(CLI::App& app, Commands& commands) {
   auto ev = std::make_shared<EvalOptions>();
   auto* e = app.add_subcommand("eval", "Evaluate a model at one pixel, light and view");
   e->add_option("model", ev->model, "A .btfgmm model")->required();
@@ -286,6 +296,14 @@ void register_model_commands(CLI::App& app, Commands& commands) {
   e->add_flag("--json", ev->json, "One JSON object for scripts");
 
   commands.push_back({e, [ev] { run_eval(*ev); }});
+}
+
+}  // namespace
+
+void register_model_commands(CLI::App& app, Commands& commands) {
+  register_fit(app, commands);
+  register_decode(app, commands);
+  register_eval(app, commands);
 }
 
 }  // namespace btfgmm::cli

@@ -1,6 +1,7 @@
 // Checkpoints of a fit: everything `btfgmm fit --resume` needs to continue a fit that was
 // interrupted (SIGINT, SIGTERM, or killed outright between checkpoints) and end with the
-// model an uninterrupted fit would have written, bit for bit.
+// model an uninterrupted fit would have written, bit for bit. run_fit (fit.hpp) writes and
+// reads them.
 #pragma once
 
 #include <cstdint>
@@ -8,10 +9,16 @@
 #include <string>
 
 #include "btfgmm/core/btf.hpp"
-#include "btfgmm/model/fit.hpp"
+#include "btfgmm/model/mixture.hpp"
 #include "btfgmm/model/model.hpp"
 
 namespace btfgmm {
+
+// Where an interrupted fit stands: the mixture after result.iterations iterations.
+struct FitState {
+  ProductMixture mixture;
+  EmResult result;
+};
 
 struct FitCheckpoint {
   // What was fitted, and how (the command's inputs).

@@ -1,10 +1,19 @@
-// A fit from a BTF tile to a model: mean BRDF, samples, initialisation and EM.
+// A fit from a BTF tile to a model: mean BRDF, samples, initialisation and EM (fit_model), and
+// the whole job of `btfgmm fit` (run_fit): load the tile, fit, keep a checkpoint, write the
+// model; interrupted, continue it from its checkpoint (resume_request).
 #pragma once
 
 #include <cstddef>
 #include <cstdint>
+#include <filesystem>
+#include <functional>
+#include <memory>
+#include <optional>
+#include <string>
 
 #include "btfgmm/core/btf.hpp"
+#include "btfgmm/io/dataset.hpp"
+#include "btfgmm/model/checkpoint.hpp"
 #include "btfgmm/model/em.hpp"
 #include "btfgmm/model/model.hpp"
 
@@ -16,18 +25,68 @@ struct FitConfig {
   EmConfig em;
 };
 
-// Where an interrupted fit stands: the mixture after result.iterations iterations.
-struct FitState {
-  ProductMixture mixture;
-  EmResult result;
-};
-
 // Mean BRDF, samples, initialisation and EM on a BTF tile. With `resume`, EM continues from
 // that state instead of a fresh initialisation (the same tile and settings are the caller's
-// to check: see checkpoint.hpp). `after_iteration` as for fit_em. If the fit was interrupted
+// to check: run_fit does). `after_iteration` as for fit_em. If the fit was interrupted
 // (config.em.stop), *state receives where it stands and the returned model is empty.
 BtfModel fit_model(const Btf& btf, const FitConfig& config, const EmCallback& progress = {},
                    const FitState* resume = nullptr, const EmStateCallback& after_iteration = {},
                    FitState* state = nullptr);
+
+// ---- The fit job: from a BTF on disk to a model file, interruptible and resumable --------
+
+// An interrupted fit to continue: its checkpoint file and what that holds.
+struct FitResume {
+  std::string path;
+  FitCheckpoint checkpoint;
+};
+
+struct FitRequest {
+  std::string input;  // a BTF folder or Bonn .zip
+  Tile tile;          // the tile to fit (pixels); empty: the whole image
+  // `input` already opened by the caller (e.g. to search it for a seamless tile,
+  // measure/tile_option.hpp); null: run_fit opens it.
+  std::shared_ptr<const BtfSource> source;
+  FitConfig config;  // components, seed; EM's iterations, epsilon, threads and stop flag
+  Precision precision = Precision::kF32;  // of the parameters in the model file
+  std::string output;                     // the model file, written atomically
+  // The fit's state is saved here (atomically) every `checkpoint_every` iterations; empty:
+  // only when the fit is interrupted, then to output + ".ckpt". Removed once the model is
+  // written.
+  std::string checkpoint;
+  int checkpoint_every = 1;
+  // Continue this interrupted fit (see resume_request); the tile and settings above must be
+  // the checkpoint's, and the data the same.
+  std::optional<FitResume> resume;
+};
+
+// The request that continues the fit whose checkpoint is `path`: its input, tile, settings
+// and output, and its state; the state keeps being saved to `path`. Threads and the stop
+// flag are the caller's to set. Throws as load_checkpoint.
+FitRequest resume_request(const std::filesystem::path& path);
+
+// What run_fit tells as it goes (the library prints nothing).
+struct FitObserver {
+  // The tile is in memory (for a resume: the very data of the checkpoint); EM starts next.
+  std::function<void(const Btf& tile)> started;
+  EmCallback iteration;  // after every EM iteration, as fit_em's progress
+};
+
+struct FitOutcome {
+  // Stopped by config.em.stop after `iterations` iterations: the state is in `checkpoint`,
+  // and resume_request(checkpoint) continues the fit.
+  bool interrupted = false;
+  int iterations = 0;
+  std::string checkpoint;
+  // Otherwise the model written to the request's output, and that file's size in bytes.
+  BtfModel model;
+  std::uint64_t file_bytes = 0;
+};
+
+// Loads the request's tile, checks a resume against it (Error(kArgument) when the data or
+// the settings are not the checkpoint's), fits (fit_model) with checkpoints as requested,
+// and writes the model, or on an interruption the checkpoint. Throws Error as the loading,
+// the fit and the writing do.
+FitOutcome run_fit(const FitRequest& request, const FitObserver& observer = {});
 
 }  // namespace btfgmm
