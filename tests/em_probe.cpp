@@ -10,6 +10,7 @@
 #include <iostream>
 
 #include "btfgmm/core/error.hpp"
+#include "btfgmm/model/em_reference.hpp"
 #include "btfgmm/model/mixture.hpp"
 
 int main(int argc, char** argv) {

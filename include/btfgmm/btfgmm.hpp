@@ -3,32 +3,44 @@
 // (docs/ARCHITECTURE.md); see each header for its part.
 #pragma once
 
-// core: directions, the BTF container, errors, limits, text
+// core: directions, the BTF container, errors, limits, text, option parsing
 #include "btfgmm/core/btf.hpp"
 #include "btfgmm/core/directions.hpp"
 #include "btfgmm/core/error.hpp"
 #include "btfgmm/core/interpolation.hpp"
 #include "btfgmm/core/limits.hpp"
+#include "btfgmm/core/parse.hpp"
 #include "btfgmm/core/text.hpp"
 // io: files, images, data sets
 #include "btfgmm/io/dataset.hpp"
 #include "btfgmm/io/files.hpp"
 #include "btfgmm/io/image.hpp"
+#include "btfgmm/io/image_names.hpp"
+#include "btfgmm/io/utia.hpp"
 // model: the mixture, samples, EM, fitting, prediction, the model file, checkpoints
 #include "btfgmm/model/checkpoint.hpp"
+#include "btfgmm/model/decode.hpp"
 #include "btfgmm/model/em.hpp"
+#include "btfgmm/model/em_reference.hpp"
 #include "btfgmm/model/fit.hpp"
 #include "btfgmm/model/mixture.hpp"
 #include "btfgmm/model/model.hpp"
 #include "btfgmm/model/model_file.hpp"
 #include "btfgmm/model/predict.hpp"
 #include "btfgmm/model/samples.hpp"
-// measure: image quality, seamless tiles
+// measure: image quality, a model against its data, seamless tiles
+#include "btfgmm/measure/compare.hpp"
 #include "btfgmm/measure/metrics.hpp"
 #include "btfgmm/measure/tile.hpp"
+#include "btfgmm/measure/tile_option.hpp"
 // render: meshes, rasterising, evaluators, composing
+#include "btfgmm/render/data_evaluator.hpp"
+#include "btfgmm/render/fast_interpolation.hpp"
+#include "btfgmm/render/model_evaluator.hpp"
 #include "btfgmm/render/render.hpp"
-// report: the comparison and its HTML report
+// report: pictures, charts and the HTML report
+#include "btfgmm/report/chart.hpp"
+#include "btfgmm/report/pictures.hpp"
 #include "btfgmm/report/report.hpp"
 // synth: generated BTFs
 #include "btfgmm/synth/generate.hpp"

@@ -6,6 +6,7 @@
 #include <algorithm>
 
 #include "btfgmm/core/error.hpp"
+#include "btfgmm/model/decode.hpp"
 #include "btfgmm/model/predict.hpp"
 #include "btfgmm/model/samples.hpp"
 

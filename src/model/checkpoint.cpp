@@ -10,7 +10,7 @@
 
 #include "btfgmm/core/error.hpp"
 #include "btfgmm/io/files.hpp"
-#include "io/byte_io.hpp"
+#include "model/byte_io.hpp"
 
 namespace btfgmm {
 namespace {

@@ -12,8 +12,8 @@
 
 #include "btfgmm/core/error.hpp"
 #include "btfgmm/core/limits.hpp"
+#include "btfgmm/model/decode.hpp"
 #include "btfgmm/model/model.hpp"
-#include "btfgmm/model/predict.hpp"
 #include "core/fast_exp.hpp"
 #include "core/flush_denormals.hpp"
 #include "model/conditional.hpp"

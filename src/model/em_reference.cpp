@@ -6,6 +6,7 @@
 
 #include "btfgmm/core/text.hpp"
 #include "btfgmm/model/em.hpp"
+#include "btfgmm/model/em_reference.hpp"
 #include "btfgmm/model/mixture.hpp"
 #include "model/mixture_internal.hpp"
 #include "model/responsibilities.hpp"

@@ -10,7 +10,7 @@
 #include "btfgmm/io/files.hpp"
 #include "btfgmm/model/model.hpp"
 #include "btfgmm/model/model_file.hpp"
-#include "io/byte_io.hpp"
+#include "model/byte_io.hpp"
 
 namespace btfgmm {
 namespace {

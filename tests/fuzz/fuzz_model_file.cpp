@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "btfgmm/core/error.hpp"
+#include "btfgmm/model/decode.hpp"
 #include "btfgmm/model/model.hpp"
 #include "btfgmm/model/model_file.hpp"
 #include "btfgmm/model/predict.hpp"

@@ -75,14 +75,4 @@ struct EmResult {
   bool interrupted = false;  // stopped by EmConfig::stop; resume from the returned state
 };
 
-// The readable statement of Eq. (3)-(7) on an explicit sample matrix (N x 9, row-major, in
-// units): log-domain responsibilities, double accumulators, variances from sums shifted by
-// the previous mean, the variance floor, vanished components dropped. Single-threaded. The
-// reference the fast grid path is checked against.
-EmResult fit_em_reference(std::span<const double> samples, ProductMixture& mixture,
-                          const EmConfig& config, const EmCallback& progress = {});
-
-// Mean log-likelihood, Eq. (3), of samples (N x 9) under a mixture.
-double mean_log_likelihood(std::span<const double> samples, const ProductMixture& mixture);
-
 }  // namespace btfgmm

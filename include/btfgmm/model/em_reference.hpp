@@ -1,0 +1,21 @@
+// The readable statement of EM, Eq. (3)-(7), on an explicit sample matrix: the reference the
+// fast grid path (em.hpp) and scikit-learn are checked against.
+#pragma once
+
+#include <span>
+
+#include "btfgmm/model/mixture.hpp"
+
+namespace btfgmm {
+
+// The readable statement of Eq. (3)-(7) on an explicit sample matrix (N x 9, row-major, in
+// units): log-domain responsibilities, double accumulators, variances from sums shifted by
+// the previous mean, the variance floor, vanished components dropped. Single-threaded. The
+// reference the fast grid path is checked against.
+EmResult fit_em_reference(std::span<const double> samples, ProductMixture& mixture,
+                          const EmConfig& config, const EmCallback& progress = {});
+
+// Mean log-likelihood, Eq. (3), of samples (N x 9) under a mixture.
+double mean_log_likelihood(std::span<const double> samples, const ProductMixture& mixture);
+
+}  // namespace btfgmm
