@@ -34,9 +34,13 @@
 #include "btfgmm/measure/tile.hpp"
 #include "btfgmm/measure/tile_option.hpp"
 // render: meshes, rasterising, evaluators, composing
+#include "btfgmm/render/camera.hpp"
 #include "btfgmm/render/data_evaluator.hpp"
 #include "btfgmm/render/fast_interpolation.hpp"
+#include "btfgmm/render/figure.hpp"
+#include "btfgmm/render/mesh.hpp"
 #include "btfgmm/render/model_evaluator.hpp"
+#include "btfgmm/render/rasterize.hpp"
 #include "btfgmm/render/render.hpp"
 // report: pictures, charts and the HTML report
 #include "btfgmm/report/chart.hpp"

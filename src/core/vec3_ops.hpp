@@ -25,5 +25,15 @@ inline Vec3 cross(const Vec3& a, const Vec3& b) {
 inline double length(const Vec3& a) {
   return std::sqrt(dot(a, a));
 }
+// a / |a|, or a itself where it has no length.
+inline Vec3 normalized(const Vec3& a) {
+  const double l = length(a);
+  return l > 0 ? a * (1.0 / l) : a;
+}
+// A unit vector normal to the unit vector n.
+inline Vec3 any_perpendicular(const Vec3& n) {
+  const Vec3 a = std::abs(n.x) < 0.9 ? Vec3{1, 0, 0} : Vec3{0, 1, 0};
+  return normalized(a - n * dot(a, n));
+}
 
 }  // namespace btfgmm::detail

@@ -1,10 +1,11 @@
 // Meshes for rendering: the built-in sphere, cylinder, draped cloth and plane, Wavefront OBJ
 // files (tinyobjloader), and per-vertex tangent frames from the texture coordinates.
+#include "btfgmm/render/mesh.hpp"
+
 #include <fmt/format.h>
 #include <tiny_obj_loader.h>
 
 #include <algorithm>
-#include <cctype>
 #include <cmath>
 #include <map>
 #include <numbers>
@@ -12,7 +13,6 @@
 
 #include "btfgmm/core/error.hpp"
 #include "btfgmm/core/text.hpp"
-#include "btfgmm/render/render.hpp"
 
 #include "core/vec3_ops.hpp"
 
@@ -24,16 +24,10 @@ constexpr double kPi = std::numbers::pi;
 using detail::operator+;
 using detail::operator-;
 using detail::operator*;
+using detail::any_perpendicular;
 using detail::cross;
 using detail::dot;
 using detail::length;
-
-// Any unit vector normal to the unit vector n.
-Vec3 any_perpendicular(const Vec3& n) {
-  const Vec3 a = std::abs(n.x) < 0.9 ? Vec3{1, 0, 0} : Vec3{0, 1, 0};
-  const Vec3 t = a - n * dot(a, n);
-  return t * (1.0 / length(t));
-}
 
 // A grid of (nu + 1) x (nv + 1) vertices from a parametric surface, two triangles per cell,
 // counter-clockwise seen from the side the normal points to when (u, v) is right-handed.
@@ -224,12 +218,14 @@ Mesh make_plane(int divisions) {
   return m;
 }
 
-Mesh load_obj(const std::filesystem::path& path) {
+namespace {
+
+// Reads a Wavefront OBJ file, triangulated; throws Error naming the file where it cannot.
+void read_obj(const std::filesystem::path& path, tinyobj::ObjReader& reader) {
   tinyobj::ObjReaderConfig config;
   config.triangulate = true;
   config.vertex_color = false;
   config.mtl_search_path = path.parent_path().string();
-  tinyobj::ObjReader reader;
   std::error_code ec;
   if (!std::filesystem::is_regular_file(path, ec))
     throw Error(Error::Kind::kIo,
@@ -240,77 +236,106 @@ Mesh load_obj(const std::filesystem::path& path) {
     throw Error(Error::Kind::kFormat,
                 fmt::format("mesh {} is not a readable Wavefront OBJ file: {}", path.string(),
                             reader.Error()));
-  const tinyobj::attrib_t& at = reader.GetAttrib();
-  Mesh m;
+}
+
+// A mesh being built from an OBJ file: its vertices de-duplicated per (position, normal, uv)
+// index triple, and the OBJ position index of each vertex.
+struct ObjMesh {
+  Mesh mesh;
   std::map<std::tuple<int, int, int>, std::uint32_t> index;
-  std::vector<int> position_of;  // the OBJ position index of each vertex
+  std::vector<int> position_of;
   bool all_normals = true;
-  for (const auto& shape : reader.GetShapes()) {
-    const auto& idx = shape.mesh.indices;
-    std::size_t k = 0;
-    for (std::size_t f = 0; f < shape.mesh.num_face_vertices.size(); ++f) {
-      const std::size_t count = shape.mesh.num_face_vertices[f];
-      if (count != 3) {  // triangulate = true leaves only triangles; skip points and lines
-        k += count;
-        continue;
-      }
-      std::array<std::uint32_t, 3> tri{};
-      for (std::size_t c = 0; c < 3; ++c, ++k) {
-        const tinyobj::index_t& i = idx[k];
-        if (i.texcoord_index < 0)
-          throw Error(Error::Kind::kFormat,
-                      fmt::format("mesh {}: face {} of '{}' has no texture coordinates; the "
-                                  "renderer maps the BTF by them: export the mesh with UVs "
-                                  "(vt lines and f v/vt/vn)",
-                                  path.string(), f + 1, shape.name));
-        if (i.vertex_index < 0 || std::size_t(3 * i.vertex_index + 2) >= at.vertices.size() ||
-            std::size_t(2 * i.texcoord_index + 1) >= at.texcoords.size() ||
-            (i.normal_index >= 0 && std::size_t(3 * i.normal_index + 2) >= at.normals.size()))
-          throw Error(Error::Kind::kFormat,
-                      fmt::format("mesh {}: face {} of '{}' refers to a missing vertex",
-                                  path.string(), f + 1, shape.name));
-        all_normals = all_normals && i.normal_index >= 0;
-        const auto key = std::make_tuple(i.vertex_index, i.normal_index, i.texcoord_index);
-        auto it = index.find(key);
-        if (it == index.end()) {
-          const auto v = std::size_t(i.vertex_index), t = std::size_t(i.texcoord_index);
-          m.position.push_back(
-              {at.vertices[3 * v], at.vertices[3 * v + 1], at.vertices[3 * v + 2]});
-          if (i.normal_index >= 0) {
-            const auto nn = std::size_t(i.normal_index);
-            m.normal.push_back(
-                {at.normals[3 * nn], at.normals[3 * nn + 1], at.normals[3 * nn + 2]});
-          } else {
-            m.normal.push_back({});
-          }
-          m.uv.push_back({at.texcoords[2 * t], at.texcoords[2 * t + 1]});
-          position_of.push_back(i.vertex_index);
-          it = index.emplace(key, std::uint32_t(m.position.size() - 1)).first;
-        }
-        tri[c] = it->second;
-      }
-      m.triangles.push_back(tri);
+};
+
+// Checks that the corner i of face f of `shape` has texture coordinates and that its
+// indices exist.
+void check_corner(const std::filesystem::path& path, const tinyobj::attrib_t& at,
+                  const tinyobj::shape_t& shape, std::size_t f, const tinyobj::index_t& i) {
+  if (i.texcoord_index < 0)
+    throw Error(Error::Kind::kFormat,
+                fmt::format("mesh {}: face {} of '{}' has no texture coordinates; the "
+                            "renderer maps the BTF by them: export the mesh with UVs "
+                            "(vt lines and f v/vt/vn)",
+                            path.string(), f + 1, shape.name));
+  if (i.vertex_index < 0 || std::size_t(3 * i.vertex_index + 2) >= at.vertices.size() ||
+      std::size_t(2 * i.texcoord_index + 1) >= at.texcoords.size() ||
+      (i.normal_index >= 0 && std::size_t(3 * i.normal_index + 2) >= at.normals.size()))
+    throw Error(Error::Kind::kFormat,
+                fmt::format("mesh {}: face {} of '{}' refers to a missing vertex", path.string(),
+                            f + 1, shape.name));
+}
+
+// The mesh vertex of the corner i, added at its first use.
+std::uint32_t corner_vertex(const tinyobj::attrib_t& at, const tinyobj::index_t& i, ObjMesh& obj) {
+  Mesh& m = obj.mesh;
+  obj.all_normals = obj.all_normals && i.normal_index >= 0;
+  const auto key = std::make_tuple(i.vertex_index, i.normal_index, i.texcoord_index);
+  auto it = obj.index.find(key);
+  if (it == obj.index.end()) {
+    const auto v = std::size_t(i.vertex_index), t = std::size_t(i.texcoord_index);
+    m.position.push_back({at.vertices[3 * v], at.vertices[3 * v + 1], at.vertices[3 * v + 2]});
+    if (i.normal_index >= 0) {
+      const auto nn = std::size_t(i.normal_index);
+      m.normal.push_back({at.normals[3 * nn], at.normals[3 * nn + 1], at.normals[3 * nn + 2]});
+    } else {
+      m.normal.push_back({});
     }
+    m.uv.push_back({at.texcoords[2 * t], at.texcoords[2 * t + 1]});
+    obj.position_of.push_back(i.vertex_index);
+    it = obj.index.emplace(key, std::uint32_t(m.position.size() - 1)).first;
   }
-  if (m.triangles.empty())
+  return it->second;
+}
+
+// The triangles of one shape of the file.
+void add_shape(const std::filesystem::path& path, const tinyobj::attrib_t& at,
+               const tinyobj::shape_t& shape, ObjMesh& obj) {
+  const auto& idx = shape.mesh.indices;
+  std::size_t k = 0;
+  for (std::size_t f = 0; f < shape.mesh.num_face_vertices.size(); ++f) {
+    const std::size_t count = shape.mesh.num_face_vertices[f];
+    if (count != 3) {  // triangulate = true leaves only triangles; skip points and lines
+      k += count;
+      continue;
+    }
+    std::array<std::uint32_t, 3> tri{};
+    for (std::size_t c = 0; c < 3; ++c, ++k) {
+      check_corner(path, at, shape, f, idx[k]);
+      tri[c] = corner_vertex(at, idx[k], obj);
+    }
+    obj.mesh.triangles.push_back(tri);
+  }
+}
+
+// Normals from the faces, shared by every vertex at one OBJ position (so that seams of the
+// texture coordinates do not crease the shading).
+void normals_from_faces(ObjMesh& obj, std::size_t positions) {
+  Mesh& m = obj.mesh;
+  std::vector<Vec3> acc(positions);
+  for (const auto& t : m.triangles) {
+    const Vec3 f = cross(m.position[t[1]] - m.position[t[0]], m.position[t[2]] - m.position[t[0]]);
+    for (std::uint32_t i : t)
+      acc[std::size_t(obj.position_of[i])] = acc[std::size_t(obj.position_of[i])] + f;
+  }
+  for (std::size_t i = 0; i < m.position.size(); ++i)
+    m.normal[i] = acc[std::size_t(obj.position_of[i])];
+}
+
+}  // namespace
+
+Mesh load_obj(const std::filesystem::path& path) {
+  tinyobj::ObjReader reader;
+  read_obj(path, reader);
+  const tinyobj::attrib_t& at = reader.GetAttrib();
+  ObjMesh obj;
+  for (const auto& shape : reader.GetShapes()) add_shape(path, at, shape, obj);
+  if (obj.mesh.triangles.empty())
     throw Error(Error::Kind::kFormat,
                 fmt::format("mesh {} has no faces; give an OBJ file with triangles or polygons",
                             path.string()));
-  if (!all_normals) {
-    // Normals from the faces, shared by every vertex at one OBJ position (so that seams of the
-    // texture coordinates do not crease the shading).
-    std::vector<Vec3> acc(at.vertices.size() / 3);
-    for (const auto& t : m.triangles) {
-      const Vec3 f =
-          cross(m.position[t[1]] - m.position[t[0]], m.position[t[2]] - m.position[t[0]]);
-      for (std::uint32_t i : t)
-        acc[std::size_t(position_of[i])] = acc[std::size_t(position_of[i])] + f;
-    }
-    for (std::size_t i = 0; i < m.position.size(); ++i)
-      m.normal[i] = acc[std::size_t(position_of[i])];
-  }
-  compute_tangent_frames(m);
-  return m;
+  if (!obj.all_normals) normals_from_faces(obj, at.vertices.size() / 3);
+  compute_tangent_frames(obj.mesh);
+  return std::move(obj.mesh);
 }
 
 Mesh make_mesh(const std::string& name) {
