@@ -11,6 +11,7 @@
 #include "btfgmm/core/directions.hpp"
 #include "btfgmm/core/error.hpp"
 #include "btfgmm/core/interpolation.hpp"
+#include "core/barycentric.hpp"
 
 namespace btfgmm {
 namespace {
@@ -113,11 +114,11 @@ DirectionInterpolator::DirectionInterpolator(const DirectionSet& set) {
   for (std::uint32_t i = 0; i < points_.size(); ++i) {
     bool dup = false;
     for (std::uint32_t j : use)
-      dup = dup || std::hypot(points_[i].x - points_[j].x, points_[i].y - points_[j].y) < 1e-12;
+      dup = dup || std::hypot(points_[i][0] - points_[j][0], points_[i][1] - points_[j][1]) < 1e-12;
     if (!dup) use.push_back(i);
   }
   std::vector<Pt> pts(points_.size());
-  for (std::size_t i = 0; i < pts.size(); ++i) pts[i] = {points_[i].x, points_[i].y};
+  for (std::size_t i = 0; i < pts.size(); ++i) pts[i] = {points_[i][0], points_[i][1]};
   if (use.size() >= 3) triangles_ = delaunay(pts, use);
 
   // Boundary of the triangulation: edges that one triangle only has.
@@ -150,44 +151,18 @@ DirectionInterpolator::Weights DirectionInterpolator::weights_at(P2 q) const {
   Weights best;
   double best_min = -std::numeric_limits<double>::infinity();
   for (const Tri& t : triangles_) {
-    const P2 &a = points_[t[0]], &b = points_[t[1]], &c = points_[t[2]];
-    const double area = (b.x - a.x) * (c.y - a.y) - (b.y - a.y) * (c.x - a.x);
-    const double wa = ((b.x - q.x) * (c.y - q.y) - (b.y - q.y) * (c.x - q.x)) / area;
-    const double wb = ((c.x - q.x) * (a.y - q.y) - (c.y - q.y) * (a.x - q.x)) / area;
-    const double wc = 1.0 - wa - wb;
-    const double m = std::min({wa, wb, wc});
+    const auto w = detail::barycentric(points_[t[0]], points_[t[1]], points_[t[2]], q[0], q[1]);
+    const double m = std::min({w[0], w[1], w[2]});
     if (m > best_min) {
       best_min = m;
       best.index = t;
-      best.weight = {wa, wb, wc};
+      best.weight = w;
     }
   }
-  if (best_min < -1e-12) {
-    // Outside the triangulation: the nearest point on its boundary.
-    double best_d = std::numeric_limits<double>::infinity();
-    for (const auto& e : hull_edges_) {
-      const P2 &a = points_[e[0]], &b = points_[e[1]];
-      const double dx = b.x - a.x, dy = b.y - a.y, len2 = dx * dx + dy * dy;
-      double s = len2 > 0.0 ? ((q.x - a.x) * dx + (q.y - a.y) * dy) / len2 : 0.0;
-      s = std::clamp(s, 0.0, 1.0);
-      const double px = a.x + s * dx - q.x, py = a.y + s * dy - q.y;
-      const double d2 = px * px + py * py;
-      if (d2 < best_d) {
-        best_d = d2;
-        best.index = {e[0], e[1], e[0]};
-        best.weight = {1.0 - s, s, 0.0};
-      }
-    }
-  }
-  // Non-negative, summing to one; a measured direction gets exactly weight 1 on itself.
-  double sum = 0.0;
-  for (double& w : best.weight) sum += (w = std::max(w, 0.0));
-  for (double& w : best.weight) w /= sum;
-  for (int i = 0; i < 3; ++i)
-    if (best.weight[i] > 1.0 - 1e-12) {
-      best.weight = {0.0, 0.0, 0.0};
-      best.weight[i] = 1.0;
-    }
+  if (best_min < -1e-12)
+    detail::nearest_on_boundary(
+        hull_edges_, [&](std::uint32_t i) -> const P2& { return points_[i]; }, q[0], q[1], best);
+  detail::normalise_weights(best);
   return best;
 }
 

@@ -10,7 +10,7 @@
 #include "btfgmm/core/error.hpp"
 #include "btfgmm/core/text.hpp"
 #include "btfgmm/render/data_evaluator.hpp"
-#include "btfgmm/render/fast_interpolation.hpp"
+#include "btfgmm/core/fast_interpolation.hpp"
 #include "btfgmm/render/render.hpp"
 #include "model/conditional.hpp"
 

@@ -12,7 +12,7 @@
 #include <vector>
 
 #include "btfgmm/model/mixture.hpp"
-#include "btfgmm/render/fast_interpolation.hpp"
+#include "btfgmm/core/fast_interpolation.hpp"
 #include "btfgmm/render/model_evaluator.hpp"
 #include "model/conditional.hpp"
 

@@ -33,9 +33,7 @@ class DirectionInterpolator {
   const std::vector<std::array<std::uint32_t, 3>>& triangles() const { return triangles_; }
 
  private:
-  struct P2 {
-    double x, y;
-  };
+  using P2 = std::array<double, 2>;  // a direction projected onto the unit disk: (x, y)
   Weights weights_at(P2 p) const;
 
   std::vector<P2> points_;

@@ -39,7 +39,7 @@
 #include "btfgmm/model/predict.hpp"
 #include "btfgmm/render/camera.hpp"
 #include "btfgmm/render/data_evaluator.hpp"
-#include "btfgmm/render/fast_interpolation.hpp"
+#include "btfgmm/core/fast_interpolation.hpp"
 #include "btfgmm/render/figure.hpp"
 #include "btfgmm/render/mesh.hpp"
 #include "btfgmm/render/model_evaluator.hpp"

@@ -6,8 +6,10 @@
 #include <limits>
 #include <map>
 
+#include "btfgmm/core/fast_interpolation.hpp"
 #include "btfgmm/core/interpolation.hpp"
-#include "btfgmm/render/fast_interpolation.hpp"
+
+#include "core/barycentric.hpp"
 
 namespace btfgmm {
 
@@ -66,13 +68,11 @@ DirectionInterpolator::Weights FastDirectionInterpolator::weights(const Vec3& v,
   return weights_at(v.x / n, v.y / n, &hint);
 }
 
-// The arithmetic of DirectionInterpolator::weights_at over the triangles near the query
-// (every triangle that could contain it): the same weights, bit for bit. Repeated here rather
-// than called: this file is built with other floating-point flags, and calling the other
-// file's normalisation instead changed the last bit of some weights (the test asserts equal
-// bits). A query well inside
-// the hinted triangle (every barycentric weight above 1e-4) lies in no other triangle: that
-// triangle is the one the scan would find.
+// The arithmetic of DirectionInterpolator::weights_at (core/barycentric.hpp: the same
+// weights, bit for bit, as the test asserts) over the triangles near the query (every
+// triangle that could contain it). A query well
+// inside the hinted triangle (every barycentric weight above 1e-4) lies in no other
+// triangle: that triangle is the one the scan would find.
 DirectionInterpolator::Weights FastDirectionInterpolator::weights_at(double qx, double qy,
                                                                      std::uint32_t* hint) const {
   DirectionInterpolator::Weights best;
@@ -80,17 +80,13 @@ DirectionInterpolator::Weights FastDirectionInterpolator::weights_at(double qx, 
   std::uint32_t best_tri = std::numeric_limits<std::uint32_t>::max();
   const auto try_triangle = [&](std::uint32_t ti) {
     const auto& t = triangles_[ti];
-    const auto &a = points_[t[0]], &b = points_[t[1]], &c = points_[t[2]];
-    const double area = (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0]);
-    const double wa = ((b[0] - qx) * (c[1] - qy) - (b[1] - qy) * (c[0] - qx)) / area;
-    const double wb = ((c[0] - qx) * (a[1] - qy) - (c[1] - qy) * (a[0] - qx)) / area;
-    const double wc = 1.0 - wa - wb;
-    const double m = std::min({wa, wb, wc});
+    const auto w = detail::barycentric(points_[t[0]], points_[t[1]], points_[t[2]], qx, qy);
+    const double m = std::min({w[0], w[1], w[2]});
     if (m > best_min) {
       best_min = m;
       best_tri = ti;
       best.index = t;
-      best.weight = {wa, wb, wc};
+      best.weight = w;
     }
   };
   if (hint && *hint < triangles_.size()) try_triangle(*hint);
@@ -106,29 +102,11 @@ DirectionInterpolator::Weights FastDirectionInterpolator::weights_at(double qx, 
   if (hint) *hint = best_tri;
   if (best_min < -1e-12) {
     if (hint) *hint = std::numeric_limits<std::uint32_t>::max();
-    double best_d = std::numeric_limits<double>::infinity();
-    for (const auto& e : hull_edges_) {
-      const auto &a = points_[e[0]], &b = points_[e[1]];
-      const double dx = b[0] - a[0], dy = b[1] - a[1], len2 = dx * dx + dy * dy;
-      double s = len2 > 0.0 ? ((qx - a[0]) * dx + (qy - a[1]) * dy) / len2 : 0.0;
-      s = std::clamp(s, 0.0, 1.0);
-      const double px = a[0] + s * dx - qx, py = a[1] + s * dy - qy;
-      const double d2 = px * px + py * py;
-      if (d2 < best_d) {
-        best_d = d2;
-        best.index = {e[0], e[1], e[0]};
-        best.weight = {1.0 - s, s, 0.0};
-      }
-    }
+    detail::nearest_on_boundary(
+        hull_edges_, [&](std::uint32_t i) -> const std::array<double, 2>& { return points_[i]; },
+        qx, qy, best);
   }
-  double sum = 0.0;
-  for (double& w : best.weight) sum += (w = std::max(w, 0.0));
-  for (double& w : best.weight) w /= sum;
-  for (int i = 0; i < 3; ++i)
-    if (best.weight[std::size_t(i)] > 1.0 - 1e-12) {
-      best.weight = {0.0, 0.0, 0.0};
-      best.weight[std::size_t(i)] = 1.0;
-    }
+  detail::normalise_weights(best);
   return best;
 }
 
