@@ -147,8 +147,10 @@ struct ChunkStats {
 struct GridStatistics {
   std::vector<double> qp;
   std::vector<ChunkStats> chunks;
-  GridStatistics(const SampleSet& s, std::size_t st)
-      : qp(s.pixels() * st, 0.0), chunks(kChunks, ChunkStats(s, st)) {}
+  GridStatistics(const SampleSet& s, std::size_t st) : qp(s.pixels() * st, 0.0) {
+    chunks.reserve(kChunks);  // each chunk's zeros written in place, not copied from a first
+    for (std::size_t c = 0; c < kChunks; ++c) chunks.emplace_back(s, st);
+  }
 };
 
 // Morton key of a colour (10 bits a channel over the box lo..hi).
