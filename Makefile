@@ -6,7 +6,7 @@ JOBS ?= $(shell nproc 2>/dev/null || echo 2)
 WERROR ?= $(if $(filter true 1 yes,$(CI)),ON,OFF)
 CMAKE_ARGS ?=
 
-.PHONY: all deps configure build demo test bench asan fuzz sizes format clean
+.PHONY: all deps configure build demo test bench asan fuzz sizes layers format clean
 
 all: build
 
@@ -56,6 +56,10 @@ fuzz: deps
 # functions <= 80 lines.
 sizes:
 	@scripts/check-sizes src
+
+# The layers include one another one way (docs/ARCHITECTURE.md).
+layers:
+	@scripts/check-layers
 
 format:
 	@clang-format -i $$(git ls-files '*.cpp' '*.hpp')
