@@ -28,6 +28,7 @@
 #include "btfgmm/core/interpolation.hpp"
 #include "btfgmm/model/mixture.hpp"
 #include "btfgmm/model/model.hpp"
+#include "model/mixture_internal.hpp"
 
 namespace btfgmm::detail {
 
@@ -82,8 +83,7 @@ inline std::vector<double> log_weight_bases(const ProductMixture& mix) {
 // Eq. (10): the term of input n in the exponent, log f_n(x_n | mu_mn, sigma_mn) less the
 // constant in log_weight_base: -(x_n - mu_mn)^2 / (2 sigma^2_mn).
 inline double log_marginal_term(double x, double mu, double var) {
-  const double d = x - mu;
-  return -0.5 * d * d / var;
+  return gauss_exponent(x, mu, var);  // Eq. (2)'s term of one variable
 }
 
 // The same term in log2 units as a square, for the float kernels:

@@ -11,6 +11,13 @@
 
 namespace btfgmm::detail {
 
+// One variable's exponent of the Gaussian in Eq. (2): -(x - mu)^2 / (2 sigma^2). The same
+// term is Eq. (10)'s, of one input (conditional.hpp).
+inline double gauss_exponent(double x, double mean, double var) {
+  const double d = x - mean;
+  return -0.5 * d * d / var;
+}
+
 // Throws Error(kArgument) for an empty mixture, non-positive variances or weights, or a
 // nonsense configuration.
 void check_em_input(std::size_t samples, const ProductMixture& mix, const EmConfig& config);

@@ -27,6 +27,7 @@
 
 #include "btfgmm/model/mixture.hpp"
 #include "core/fast_exp.hpp"
+#include "model/mixture_internal.hpp"
 #if defined(__AVX512F__)
 #include "model/em_avx512.hpp"
 #endif
@@ -43,12 +44,6 @@ constexpr std::size_t kLanes = 16;
 // log w_m - (K/2) log(2 pi): the part of Eq. (2) that depends on no variable.
 inline double log_weight_and_norm(double weight) {
   return std::log(weight) - 0.5 * kVariables * std::log(2.0 * std::numbers::pi);
-}
-
-// One variable's exponent of Eq. (2): -(x - mu)^2 / (2 sigma^2).
-inline double gauss_exponent(double x, double mean, double var) {
-  const double d = x - mean;
-  return -0.5 * d * d / var;
 }
 
 // log w_m F(x | m), Eq. (2) in the log domain, of the sample x (9 values).
