@@ -7,9 +7,11 @@
 #include <iostream>
 #include <memory>
 #include <optional>
+#include <span>
 
 #include "btfgmm/btfgmm.hpp"
 #include "btfgmm/core/text.hpp"
+#include "btfgmm/io/files.hpp"
 #include "btfgmm/measure/metrics.hpp"
 #include "btfgmm/model/model.hpp"
 #include "btfgmm/model/model_file.hpp"
@@ -220,7 +222,10 @@ void run_compare(const CompareOptions& o) {
   }
   if (!o.report.empty()) {
     write_report(o.report, o.btf, results);
-    std::ofstream(fs::path(o.report) / "compare.json") << all.dump(2) << "\n";
+    const std::string json = all.dump(2) + "\n";
+    btfgmm::write_file_atomically(
+        fs::path(o.report) / "compare.json",
+        std::span(reinterpret_cast<const std::uint8_t*>(json.data()), json.size()), "report");
     if (!o.quiet)
       fmt::print(stderr, "wrote the report {}\n", (fs::path(o.report) / "index.html").string());
   }

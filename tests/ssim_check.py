@@ -1,5 +1,5 @@
 #!/usr/bin/python3
-"""Independent check of btfgmm's image metrics (src/metrics.cpp) against scikit-image.
+"""Independent check of btfgmm's image metrics (src/measure/metrics.cpp) against scikit-image.
 
 SSIM equals skimage.metrics.structural_similarity(a, b, channel_axis=-1,
 gaussian_weights=True, sigma=1.5, use_sample_covariance=False, data_range=R) to 1e-6 on random

@@ -24,6 +24,7 @@
 #include "btfgmm/core/error.hpp"
 #include "btfgmm/io/dataset.hpp"
 #include "btfgmm/io/image.hpp"
+#include "btfgmm/measure/tile.hpp"
 
 namespace fs = std::filesystem;
 using btfgmm::Btf;
@@ -732,6 +733,29 @@ TEST(Dataset, BonnFolderAndZipReadTheSameValues) {
   expect_same(zip.load(), b);
   const Tile t{1, 2, 5, 3};
   expect_same(zip.load(t), folder.load(t));
+}
+
+// The seamless-tile search reads a Bonn zip's images through the io layer's zip reader: the
+// same seams as from the unpacked folder.
+TEST(Dataset, TileSearchReadsABonnZipLikeItsFolder) {
+  TempDir dir;
+  const Btf b = make_btf(SampleFormat::kLdr8, 8, 8);
+  std::vector<std::pair<std::string, std::vector<std::uint8_t>>> entries;
+  for (std::size_t l = 0; l < b.lights().size(); ++l)
+    for (std::size_t v = 0; v < b.views().size(); ++v) {
+      const auto png = encode_png8(8, 8, 3, to_bytes(b.image(l, v), b.image_floats()));
+      const std::string name = bonn_name(b, l, v, ".png");
+      put_file(dir / ("bonn/" + name), png);
+      entries.emplace_back("material/" + view_folder(b.views()[v]) + "/" + name, png);
+    }
+  make_zip(dir / "material.zip", entries);
+  const auto from_folder = btfgmm::find_seamless_tile(BtfSource::open(dir / "bonn"), 5, 4);
+  const auto from_zip = btfgmm::find_seamless_tile(BtfSource::open(dir / "material.zip"), 5, 4);
+  EXPECT_EQ(from_zip.tile.x, from_folder.tile.x);
+  EXPECT_EQ(from_zip.tile.y, from_folder.tile.y);
+  EXPECT_EQ(from_zip.images, from_folder.images);
+  EXPECT_GT(from_zip.images, 0u);
+  EXPECT_DOUBLE_EQ(from_zip.seam.total, from_folder.seam.total);
 }
 
 TEST(Dataset, BonnJpegFolderAndZip) {

@@ -7,6 +7,7 @@
 #include "btfgmm/core/btf.hpp"
 #include "btfgmm/core/directions.hpp"
 #include "btfgmm/core/error.hpp"
+#include "btfgmm/core/fast_interpolation.hpp"
 #include "btfgmm/core/interpolation.hpp"
 #include "btfgmm/core/limits.hpp"
 #include "btfgmm/core/parse.hpp"
@@ -36,7 +37,6 @@
 // render: meshes, rasterising, evaluators, composing
 #include "btfgmm/render/camera.hpp"
 #include "btfgmm/render/data_evaluator.hpp"
-#include "btfgmm/core/fast_interpolation.hpp"
 #include "btfgmm/render/figure.hpp"
 #include "btfgmm/render/mesh.hpp"
 #include "btfgmm/render/model_evaluator.hpp"

@@ -1,9 +1,8 @@
-// The seamless-tile search (include/btfgmm/tile.hpp): seam mismatches of every candidate
+// The seamless-tile search (include/btfgmm/measure/tile.hpp): seam mismatches of every candidate
 // position accumulated over a sample of images, summed over a tile's rows or columns with
 // prefix sums, so every (position, size) costs O(1).
 #include <fmt/format.h>
 #include <omp.h>
-#include <zip.h>
 
 #include <algorithm>
 #include <charconv>
@@ -18,6 +17,7 @@
 #include "btfgmm/core/error.hpp"
 #include "btfgmm/io/image.hpp"
 #include "btfgmm/measure/tile.hpp"
+#include "io/zip.hpp"
 
 namespace btfgmm {
 namespace {
@@ -198,48 +198,24 @@ class SeamSums {
   std::size_t images_ = 0;
 };
 
-// One image of a source, whole, as RGB floats.
+// One image of a source, whole, as RGB floats (a Bonn zip opened once, its entries read by the
+// io layer's zip reader with their sizes checked).
 class SourceReader {
  public:
   explicit SourceReader(const BtfSource& s) : src_(s) {}
-  ~SourceReader() {
-    if (zip_) zip_discard(zip_);
-  }
-  SourceReader(const SourceReader&) = delete;
-  SourceReader& operator=(const SourceReader&) = delete;
 
   Image read(std::size_t light, std::size_t view) {
     const BtfInfo& info = src_.info();
     const std::string& name = src_.image_name(light, view);
     if (info.layout != Layout::kBonnZip) return read_image(info.path / name);
-    if (!zip_) {
-      int code = 0;
-      zip_ = zip_open(info.path.c_str(), ZIP_RDONLY, &code);
-      if (!zip_)
-        throw Error(Error::Kind::kIo, fmt::format("cannot open the archive {} (libzip error {})",
-                                                  info.path.string(), code));
-    }
-    const std::string display = info.path.string() + ":" + name;
-    const zip_int64_t index = zip_name_locate(zip_, name.c_str(), 0);
-    zip_stat_t st;
-    zip_stat_init(&st);
-    if (index < 0 || zip_stat_index(zip_, zip_uint64_t(index), 0, &st) != 0 ||
-        !(st.valid & ZIP_STAT_SIZE) || st.size > (zip_uint64_t(1) << 31))
-      throw Error(Error::Kind::kFormat,
-                  fmt::format("{}: cannot read the entry; the archive is corrupt", display));
-    std::vector<std::uint8_t> bytes(std::size_t(st.size));
-    zip_file_t* f = zip_fopen_index(zip_, zip_uint64_t(index), 0);
-    if (!f) throw Error(Error::Kind::kIo, fmt::format("{}: cannot open the entry", display));
-    const zip_int64_t n = zip_fread(f, bytes.data(), bytes.size());
-    zip_fclose(f);
-    if (n < 0 || zip_uint64_t(n) != st.size)
-      throw Error(Error::Kind::kIo, fmt::format("{}: the entry is truncated", display));
-    return decode_image(bytes, display);
+    if (!zip_) zip_ = detail::open_zip(info.path);
+    return decode_image(detail::read_zip_entry(zip_.get(), info.path, name),
+                        detail::entry_display(info.path, name));
   }
 
  private:
   const BtfSource& src_;
-  zip_t* zip_ = nullptr;
+  detail::Zip zip_;
 };
 
 int parse_int(const std::string& s, const std::string& option, const std::string& text) {

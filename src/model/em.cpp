@@ -24,10 +24,8 @@
 #include <exception>
 #include <limits>
 
-#include "btfgmm/core/error.hpp"
 #include "btfgmm/core/text.hpp"
 #include "btfgmm/model/em.hpp"
-#include "btfgmm/model/model.hpp"
 #include "btfgmm/model/samples.hpp"
 #include "core/flush_denormals.hpp"
 #include "model/em_group_pass.hpp"

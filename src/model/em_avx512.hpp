@@ -1,5 +1,5 @@
-// AVX-512 primitives of the E pass (em_group_pass.hpp, responsibilities.hpp) and of prediction
-// (predict.cpp): exp, horizontal max and sum on 16 float lanes. Included only where
+// AVX-512 primitives of the E pass (em_group_pass.hpp, responsibilities.hpp) and of decoding
+// (decode.cpp): exp, horizontal max and sum on 16 float lanes. Included only where
 // __AVX512F__ is defined.
 #pragma once
 

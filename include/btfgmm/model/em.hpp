@@ -1,5 +1,5 @@
 // EM for the mixture on the sample grid, Eq. (3)-(7) (docs/ALGORITHM.md): the fast path every
-// fit uses. The readable statement of the same equations is mixture.hpp's fit_em_reference.
+// fit uses. The readable statement of the same equations is em_reference.hpp's fit_em_reference.
 #pragma once
 
 #include <functional>

@@ -20,8 +20,8 @@
 // those directions.
 //
 // This header includes the render layer's others: mesh.hpp (meshes), camera.hpp (camera, light,
-// settings), rasterize.hpp (1. the geometry pass), model_evaluator.hpp, data_evaluator.hpp and
-// fast_interpolation.hpp (2. the evaluators) and figure.hpp (the comparison of Fig. 3).
+// settings), rasterize.hpp (1. the geometry pass), model_evaluator.hpp and data_evaluator.hpp
+// (2. the evaluators) and figure.hpp (the comparison of Fig. 3).
 #pragma once
 
 #include <array>
@@ -32,14 +32,8 @@
 #include <vector>
 
 #include "btfgmm/core/btf.hpp"
-#include "btfgmm/core/directions.hpp"
-#include "btfgmm/core/interpolation.hpp"
-#include "btfgmm/io/image.hpp"
-#include "btfgmm/model/model.hpp"
-#include "btfgmm/model/predict.hpp"
 #include "btfgmm/render/camera.hpp"
 #include "btfgmm/render/data_evaluator.hpp"
-#include "btfgmm/core/fast_interpolation.hpp"
 #include "btfgmm/render/figure.hpp"
 #include "btfgmm/render/mesh.hpp"
 #include "btfgmm/render/model_evaluator.hpp"
