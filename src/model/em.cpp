@@ -65,9 +65,7 @@ void tabulate_densities(Tables& t, const SampleSet& s, const ProductMixture& mix
   std::vector<double> base(m_count);
   for (std::size_t k = 0; k < m_count; ++k) {
     const std::size_t m = t.order[k];
-    double b = detail::log_weight_and_norm(mix.weight[m]);
-    for (int n = 0; n < kVariables; ++n) b -= 0.5 * std::log(mix.var[m][n]);
-    base[k] = b;
+    base[k] = detail::log_density_constant(mix, m);
     for (int c = 0; c < 3; ++c) {
       t.mu[c * st + k] = float(mix.mean[m][6 + c]);
       t.neg_half_inv_var[c * st + k] = float(-0.5 / mix.var[m][6 + c]);

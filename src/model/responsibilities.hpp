@@ -46,6 +46,14 @@ inline double log_weight_and_norm(double weight) {
   return std::log(weight) - 0.5 * kVariables * std::log(2.0 * std::numbers::pi);
 }
 
+// The part of log w_m F(x | m) that depends on no value of x: log w_m - (K/2) log(2 pi)
+// - (1/2) sum_n log sigma_mn^2 (the grid path's tables start from it).
+inline double log_density_constant(const ProductMixture& mix, std::size_t m) {
+  double b = log_weight_and_norm(mix.weight[m]);
+  for (int n = 0; n < kVariables; ++n) b -= 0.5 * std::log(mix.var[m][n]);
+  return b;
+}
+
 // log w_m F(x | m), Eq. (2) in the log domain, of the sample x (9 values).
 inline double log_weighted_density(const ProductMixture& mix, std::size_t m, const double* x) {
   double l = log_weight_and_norm(mix.weight[m]);
