@@ -704,17 +704,29 @@ TEST(Dataset, FractionalAnglesRoundTrip) {
   expect_same(BtfSource::open(hdr.path()).load(), h);
 }
 
-TEST(Dataset, BonnFolderAndZipReadTheSameValues) {
-  TempDir dir;
-  const Btf b = make_btf(SampleFormat::kLdr8, 8, 8);
+namespace {
+
+// An 8 x 8 BTF as Bonn-named PNGs in `folder`; returns the same files as zip entries under
+// material/<view folder>/.
+std::vector<std::pair<std::string, std::vector<std::uint8_t>>> write_bonn_folder(
+    const Btf& b, const fs::path& folder) {
   std::vector<std::pair<std::string, std::vector<std::uint8_t>>> entries;
   for (std::size_t l = 0; l < b.lights().size(); ++l)
     for (std::size_t v = 0; v < b.views().size(); ++v) {
       const auto png = encode_png8(8, 8, 3, to_bytes(b.image(l, v), b.image_floats()));
       const std::string name = bonn_name(b, l, v, ".png");
-      put_file(dir / ("bonn/" + name), png);
+      put_file(folder / name, png);
       entries.emplace_back("material/" + view_folder(b.views()[v]) + "/" + name, png);
     }
+  return entries;
+}
+
+}  // namespace
+
+TEST(Dataset, BonnFolderAndZipReadTheSameValues) {
+  TempDir dir;
+  const Btf b = make_btf(SampleFormat::kLdr8, 8, 8);
+  auto entries = write_bonn_folder(b, dir / "bonn");
   entries.emplace_back("material/README.txt", std::vector<std::uint8_t>{'x'});
   entries.emplace_back("__MACOSX/material/._00000 tl000 pl000 tv000 pv000.png",
                        std::vector<std::uint8_t>{'y'});
@@ -740,14 +752,7 @@ TEST(Dataset, BonnFolderAndZipReadTheSameValues) {
 TEST(Dataset, TileSearchReadsABonnZipLikeItsFolder) {
   TempDir dir;
   const Btf b = make_btf(SampleFormat::kLdr8, 8, 8);
-  std::vector<std::pair<std::string, std::vector<std::uint8_t>>> entries;
-  for (std::size_t l = 0; l < b.lights().size(); ++l)
-    for (std::size_t v = 0; v < b.views().size(); ++v) {
-      const auto png = encode_png8(8, 8, 3, to_bytes(b.image(l, v), b.image_floats()));
-      const std::string name = bonn_name(b, l, v, ".png");
-      put_file(dir / ("bonn/" + name), png);
-      entries.emplace_back("material/" + view_folder(b.views()[v]) + "/" + name, png);
-    }
+  const auto entries = write_bonn_folder(b, dir / "bonn");
   make_zip(dir / "material.zip", entries);
   const auto from_folder = btfgmm::find_seamless_tile(BtfSource::open(dir / "bonn"), 5, 4);
   const auto from_zip = btfgmm::find_seamless_tile(BtfSource::open(dir / "material.zip"), 5, 4);
