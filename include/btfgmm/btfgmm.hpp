@@ -29,6 +29,11 @@
 #include "btfgmm/model/model_file.hpp"
 #include "btfgmm/model/predict.hpp"
 #include "btfgmm/model/samples.hpp"
+// methods: one interface for every representation (the mixture and the comparison methods)
+#include "btfgmm/methods/gaussian_mixture.hpp"
+#include "btfgmm/methods/measured_images.hpp"
+#include "btfgmm/methods/registry.hpp"
+#include "btfgmm/methods/representation.hpp"
 // measure: image quality, a model against its data, seamless tiles
 #include "btfgmm/measure/compare.hpp"
 #include "btfgmm/measure/metrics.hpp"

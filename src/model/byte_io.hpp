@@ -65,8 +65,9 @@ class ByteReader {
     }
     return double(get<float>(field));
   }
-  std::string text(const char* field) {
-    const auto n = get<std::uint32_t>(field);
+  std::string text(const char* field) { return text_of_size(get<std::uint32_t>(field), field); }
+  // `n` bytes of text (its length already read).
+  std::string text_of_size(std::uint32_t n, const char* field) {
     if (n > remaining()) fail(fmt::format("field '{}' claims {} bytes", field, n));
     std::string s(reinterpret_cast<const char*>(b_.data() + pos_), n);
     pos_ += n;
@@ -84,5 +85,12 @@ class ByteReader {
   std::string what_, name_, fix_;
   std::size_t pos_ = 0;
 };
+
+// The model file's direction sets and tile (docs/FORMAT.md; model_file.cpp): shared by the
+// mixture's payload and every other method's frame.
+void put_directions(ByteWriter& w, const DirectionSet& s);
+DirectionSet get_directions(ByteReader& r, const char* what);
+void put_tile(ByteWriter& w, int width, int height, const Tile& origin, SampleFormat format);
+void get_tile(ByteReader& r, int& width, int& height, Tile& origin, SampleFormat& format);
 
 }  // namespace btfgmm::detail

@@ -18,9 +18,14 @@ namespace {
 constexpr std::uint8_t kMagic[8] = {0x89, 'B', 'T', 'F', 'G', 'M', 'M', '\n'};
 constexpr std::size_t kHeaderBytes = 24, kTrailerBytes = 4;
 constexpr std::uint32_t kDirectionsExplicit = 0, kDirectionsUbo81 = 1;
+constexpr std::size_t kMaxMethodTag = 32;
 
 using Writer = detail::ByteWriter;
 using Reader = detail::ByteReader;
+
+}  // namespace
+
+namespace detail {
 
 void put_directions(Writer& w, const DirectionSet& s) {
   if (s == DirectionSet::ubo81()) {
@@ -52,6 +57,42 @@ DirectionSet get_directions(Reader& r, const char* what) {
   }
   return DirectionSet(std::move(dirs));
 }
+
+void put_tile(Writer& w, int width, int height, const Tile& origin, SampleFormat format) {
+  w.put<std::uint32_t>(std::uint32_t(width));
+  w.put<std::uint32_t>(std::uint32_t(height));
+  w.put<std::int32_t>(origin.x);
+  w.put<std::int32_t>(origin.y);
+  w.put<std::uint32_t>(std::uint32_t(format));
+}
+
+void get_tile(Reader& r, int& width, int& height, Tile& origin, SampleFormat& format) {
+  const auto w = r.get<std::uint32_t>("width"), h = r.get<std::uint32_t>("height");
+  // The tile was cut from an image: no larger than the largest image read.
+  if (w < 1 || h < 1 || w > std::uint32_t(limits::kMaxImageSide) ||
+      h > std::uint32_t(limits::kMaxImageSide) ||
+      std::int64_t(w) * std::int64_t(h) > limits::kMaxImagePixels)
+    r.fail(fmt::format("tile size {}x{} is out of range", w, h));
+  width = int(w);
+  height = int(h);
+  origin.x = r.get<std::int32_t>("origin x");
+  origin.y = r.get<std::int32_t>("origin y");
+  if (origin.x < 0 || origin.y < 0 || origin.x > limits::kMaxImageSide - width ||
+      origin.y > limits::kMaxImageSide - height)
+    r.fail(fmt::format("the tile's origin ({}, {}) is outside any image", origin.x, origin.y));
+  origin.width = width;
+  origin.height = height;
+  const auto f = r.get<std::uint32_t>("sample format");
+  if (f > 2) r.fail(fmt::format("unknown sample format {}", f));
+  format = SampleFormat(f);
+}
+
+}  // namespace detail
+
+namespace {
+
+using detail::get_directions;
+using detail::put_directions;
 
 // The header's fields after the magic bytes.
 struct Header {
@@ -119,28 +160,6 @@ Header read_header(std::span<const std::uint8_t> bytes, const std::string& name)
   return h;
 }
 
-// The tile's size and origin and the sample format.
-void read_tile(Reader& r, BtfModel& m) {
-  const auto w = r.get<std::uint32_t>("width"), h = r.get<std::uint32_t>("height");
-  // The tile was cut from an image: no larger than the largest image read.
-  if (w < 1 || h < 1 || w > std::uint32_t(limits::kMaxImageSide) ||
-      h > std::uint32_t(limits::kMaxImageSide) ||
-      std::int64_t(w) * std::int64_t(h) > limits::kMaxImagePixels)
-    r.fail(fmt::format("tile size {}x{} is out of range", w, h));
-  m.width = int(w);
-  m.height = int(h);
-  m.origin.x = r.get<std::int32_t>("origin x");
-  m.origin.y = r.get<std::int32_t>("origin y");
-  if (m.origin.x < 0 || m.origin.y < 0 || m.origin.x > limits::kMaxImageSide - m.width ||
-      m.origin.y > limits::kMaxImageSide - m.height)
-    r.fail(fmt::format("the tile's origin ({}, {}) is outside any image", m.origin.x, m.origin.y));
-  m.origin.width = m.width;
-  m.origin.height = m.height;
-  const auto format = r.get<std::uint32_t>("sample format");
-  if (format > 2) r.fail(fmt::format("unknown sample format {}", format));
-  m.format = SampleFormat(format);
-}
-
 // How the model was fitted.
 void read_settings(Reader& r, FitSettings& s) {
   s.components = r.get<std::uint32_t>("components requested");
@@ -188,14 +207,10 @@ void read_components(Reader& r, BtfModel& m) {
 
 }  // namespace
 
-std::vector<std::uint8_t> serialize_model(const BtfModel& m) {
+std::vector<std::uint8_t> mixture_payload(const BtfModel& m) {
   const Precision p = m.precision;
   Writer w;
-  w.put<std::uint32_t>(std::uint32_t(m.width));
-  w.put<std::uint32_t>(std::uint32_t(m.height));
-  w.put<std::int32_t>(m.origin.x);
-  w.put<std::int32_t>(m.origin.y);
-  w.put<std::uint32_t>(std::uint32_t(m.format));
+  detail::put_tile(w, m.width, m.height, m.origin, m.format);
   put_directions(w, m.lights);
   put_directions(w, m.views);
   for (double u : m.scaling.unit) w.put<double>(u);
@@ -214,14 +229,21 @@ std::vector<std::uint8_t> serialize_model(const BtfModel& m) {
     for (int n = 0; n < kVariables; ++n) w.real(std::sqrt(m.mixture.var[k][n]), p);
   }
   for (float v : m.mean_brdf) w.real(v, p);
+  return std::move(w.bytes);
+}
 
+std::vector<std::uint8_t> model_file_bytes(std::string_view method, std::uint32_t flags,
+                                           std::span<const std::uint8_t> payload) {
+  Writer body;
+  body.text(std::string(method));
+  body.bytes.insert(body.bytes.end(), payload.begin(), payload.end());
   std::vector<std::uint8_t> out(kMagic, kMagic + 8);
   Writer h;
   h.put<std::uint32_t>(kModelFormatVersion);
-  h.put<std::uint32_t>(std::uint32_t(p));
-  h.put<std::uint64_t>(std::uint64_t(w.bytes.size()));
+  h.put<std::uint32_t>(flags);
+  h.put<std::uint64_t>(std::uint64_t(body.bytes.size()));
   out.insert(out.end(), h.bytes.begin(), h.bytes.end());
-  out.insert(out.end(), w.bytes.begin(), w.bytes.end());
+  out.insert(out.end(), body.bytes.begin(), body.bytes.end());
   const std::uint32_t crc = std::uint32_t(crc32(0L, out.data(), uInt(out.size())));
   Writer t;
   t.put<std::uint32_t>(crc);
@@ -229,14 +251,12 @@ std::vector<std::uint8_t> serialize_model(const BtfModel& m) {
   return out;
 }
 
-BtfModel deserialize_model(std::span<const std::uint8_t> bytes, const std::string& name) {
-  check_magic(bytes, name);
-  const Header header = read_header(bytes, name);
+BtfModel read_mixture_payload(std::span<const std::uint8_t> payload, std::uint32_t flags,
+                              const std::string& name) {
   BtfModel m;
-  m.precision = Precision(header.flags);
-  Reader r(bytes.subspan(kHeaderBytes, std::size_t(header.payload)), "model file", name,
-           "fit the model again");
-  read_tile(r, m);
+  m.precision = Precision(flags);
+  Reader r(payload, "model file", name, "fit the model again");
+  detail::get_tile(r, m.width, m.height, m.origin, m.format);
   m.lights = get_directions(r, "light directions");
   m.views = get_directions(r, "view directions");
   for (double& u : m.scaling.unit) {
@@ -246,6 +266,42 @@ BtfModel deserialize_model(std::span<const std::uint8_t> bytes, const std::strin
   read_settings(r, m.settings);
   read_components(r, m);
   return m;
+}
+
+ModelFileContents open_model_file(std::span<const std::uint8_t> bytes, const std::string& name) {
+  check_magic(bytes, name);
+  const Header header = read_header(bytes, name);
+  ModelFileContents c;
+  c.version = header.version;
+  c.flags = header.flags;
+  c.payload = bytes.subspan(kHeaderBytes, std::size_t(header.payload));
+  if (header.version == 1) {  // version 1 held a Gaussian mixture only, with no tag
+    c.method = std::string(kMixtureMethod);
+    return c;
+  }
+  Reader r(c.payload, "model file", name, "fit the model again");
+  const auto n = r.get<std::uint32_t>("method");
+  if (n == 0 || n > kMaxMethodTag) r.fail(fmt::format("method name of {} bytes", n));
+  c.method = r.text_of_size(n, "method");
+  for (char ch : c.method)
+    if (!((ch >= 'a' && ch <= 'z') || (ch >= '0' && ch <= '9') || ch == '-'))
+      r.fail("the method name holds a character other than a-z, 0-9 and '-'");
+  c.payload = c.payload.subspan(r.pos());
+  return c;
+}
+
+std::vector<std::uint8_t> serialize_model(const BtfModel& m) {
+  return model_file_bytes(kMixtureMethod, std::uint32_t(m.precision), mixture_payload(m));
+}
+
+BtfModel deserialize_model(std::span<const std::uint8_t> bytes, const std::string& name) {
+  const ModelFileContents c = open_model_file(bytes, name);
+  if (c.method != kMixtureMethod)
+    throw Error(Error::Kind::kFormat,
+                fmt::format("model file '{}' holds a '{}' model, not a Gaussian mixture; read it "
+                            "with load_representation (methods/registry.hpp)",
+                            name, c.method));
+  return read_mixture_payload(c.payload, c.flags, name);
 }
 
 void save_model(const BtfModel& model, const std::filesystem::path& path) {

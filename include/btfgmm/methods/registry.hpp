@@ -1,0 +1,49 @@
+// Every method btfgmm fits, by name (docs/METHODS.md): how to fit it, read it from a model
+// file, and which sizes span its range on a tile. The one place that lists the methods.
+#pragma once
+
+#include <cstdint>
+#include <filesystem>
+#include <functional>
+#include <memory>
+#include <span>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "btfgmm/core/btf.hpp"
+#include "btfgmm/methods/representation.hpp"
+
+namespace btfgmm {
+
+struct MethodInfo {
+  std::string_view name;      // as `fit --method` takes it
+  std::string_view title;     // "PCA BTF: one PCA of all images"
+  std::string_view citation;  // "Koudelka, Magda, Belhumeur, Kriegman 2003"
+  std::string_view sizes;     // which settings set its size ("--components c (eigen-images)")
+  // Fits the method to a tile. Throws Error(kArgument) naming the option and its allowed
+  // range for a setting the tile cannot take.
+  std::function<std::unique_ptr<Representation>(const Btf& tile, const MethodSettings& s)> fit;
+  // Reads the method's payload (model/model_file.hpp); Error(kFormat) naming `name`.
+  std::function<std::unique_ptr<Representation>(std::span<const std::uint8_t> payload,
+                                                std::uint32_t flags, const std::string& name)>
+      read;
+  // Settings that span compression ratios from about 1:5 to 1:500 on a tile of this frame
+  // (as Table 2 counts them), smallest model first; `sweep` fits each.
+  std::function<std::vector<MethodSettings>(const ModelFrame& frame)> ladder;
+};
+
+// Every method, the Gaussian mixture ("gm") first.
+std::span<const MethodInfo> all_methods();
+// Throws Error(kArgument) for an unknown name, listing the methods (and the nearest name).
+const MethodInfo& find_method(std::string_view name);
+
+// Any method's model file: read (Error(kFormat) naming the file), written atomically.
+std::unique_ptr<Representation> read_representation(std::span<const std::uint8_t> bytes,
+                                                    const std::string& name);
+std::unique_ptr<Representation> load_representation(const std::filesystem::path& path);
+std::vector<std::uint8_t> representation_file_bytes(const Representation& r);
+// Returns the file's size in bytes.
+std::uint64_t save_representation(const Representation& r, const std::filesystem::path& path);
+
+}  // namespace btfgmm

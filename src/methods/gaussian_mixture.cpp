@@ -1,0 +1,86 @@
+// The Gaussian mixture behind the Representation interface.
+#include "btfgmm/methods/gaussian_mixture.hpp"
+
+#include <fmt/format.h>
+
+#include "btfgmm/core/error.hpp"
+#include "btfgmm/model/decode.hpp"
+#include "btfgmm/model/fit.hpp"
+#include "btfgmm/model/model_file.hpp"
+#include "btfgmm/model/predict.hpp"
+
+namespace btfgmm {
+
+GaussianMixture::GaussianMixture(BtfModel model) : model_(std::move(model)) {
+  frame_.lights = model_.lights;
+  frame_.views = model_.views;
+  frame_.width = model_.width;
+  frame_.height = model_.height;
+  frame_.origin = model_.origin;
+  frame_.format = model_.format;
+}
+
+std::string_view GaussianMixture::method() const {
+  return kMixtureMethod;
+}
+
+std::string GaussianMixture::size_text() const {
+  return fmt::format("M = {}", model_.mixture.size());
+}
+
+std::uint64_t GaussianMixture::parameter_count() const {
+  return std::uint64_t(model_.mixture.size()) * kVariables * 2 +
+         std::uint64_t(model_.mean_brdf.size());
+}
+
+void GaussianMixture::predict(std::span<const Query> queries, std::span<float> rgb) const {
+  btfgmm::predict(model_, queries, rgb);
+}
+
+Btf GaussianMixture::decode(const DirectionSet& lights, const DirectionSet& views, int width,
+                            int height, double tolerance) const {
+  return btfgmm::decode(model_, lights, views, width, height, tolerance);
+}
+
+std::vector<std::uint8_t> GaussianMixture::payload() const {
+  return mixture_payload(model_);
+}
+
+std::vector<std::pair<std::string, std::string>> GaussianMixture::details() const {
+  const FitSettings& s = model_.settings;
+  return {
+      {"components", fmt::format("{} ({} requested, {} dropped by EM)", model_.mixture.size(),
+                                 s.components, s.dropped)},
+      {"EM iterations", fmt::format("{} of at most {}", s.iterations, s.max_iterations)},
+      {"log-likelihood", fmt::format("{:.6f} per sample (model units)", s.log_likelihood)},
+      {"seed", fmt::format("{}", s.seed)},
+      {"precision", model_.precision == Precision::kF16 ? "16-bit float" : "32-bit float"},
+  };
+}
+
+std::unique_ptr<Representation> fit_gaussian_mixture(const Btf& tile, const MethodSettings& s) {
+  if (s.encoding == FactorEncoding::kQ8)
+    throw Error(Error::Kind::kArgument,
+                "--precision q8: the Gaussian mixture stores f32 or f16; give one of those");
+  if (s.clusters != 0)
+    throw Error(Error::Kind::kArgument,
+                "--clusters applies to lpca only; the Gaussian mixture's size is --components");
+  FitConfig config;
+  config.components = s.components ? s.components : 600;
+  config.seed = s.seed;
+  config.em.max_iterations = s.iterations ? s.iterations : 40;
+  config.em.threads = s.threads;
+  config.em.stop = s.stop;
+  EmCallback progress;
+  if (s.progress)
+    progress = [&s](const EmProgress& p) {
+      s.progress(double(p.iteration) / double(p.max_iterations), "EM");
+    };
+  BtfModel model = fit_model(tile, config, progress);
+  if (model.mixture.size() == 0)
+    throw Error(Error::Kind::kArgument, "the Gaussian mixture's fit was stopped");
+  model.precision = s.encoding == FactorEncoding::kF16 ? Precision::kF16 : Precision::kF32;
+  return std::make_unique<GaussianMixture>(std::move(model));
+}
+
+}  // namespace btfgmm

@@ -1,0 +1,179 @@
+// Any pixel, light and view from the images of measured (light, view) pairs: bilinear in
+// space, barycentric over the measured directions (measured_images.hpp).
+#include "btfgmm/methods/measured_images.hpp"
+
+#include <fmt/format.h>
+
+#include <cmath>
+#include <vector>
+
+#include "btfgmm/core/error.hpp"
+#include "btfgmm/core/limits.hpp"
+#include "model/conditional.hpp"
+
+namespace btfgmm {
+
+MeasuredImages::MeasuredImages(ModelFrame frame)
+    : frame_(std::move(frame)),
+      lights_(std::make_unique<DirectionInterpolator>(frame_.lights)),
+      views_(std::make_unique<DirectionInterpolator>(frame_.views)) {}
+
+MeasuredImages::~MeasuredImages() = default;
+
+void MeasuredImages::measured_image(std::size_t light, std::size_t view, float* rgb) const {
+  for (int y = 0; y < frame_.height; ++y)
+    for (int x = 0; x < frame_.width; ++x)
+      measured_pixel(light, view, x, y,
+                     rgb + (std::size_t(y) * std::size_t(frame_.width) + std::size_t(x)) * 3);
+}
+
+void MeasuredImages::light_pixel(const Direction& light, std::size_t view, int x, int y,
+                                 float* rgb) const {
+  const auto w = lights_->weights(light);
+  double sum[3] = {0, 0, 0};
+  for (std::size_t a = 0; a < 3; ++a) {
+    if (w.weight[a] == 0.0) continue;
+    float v[3];
+    measured_pixel(w.index[a], view, x, y, v);
+    for (int c = 0; c < 3; ++c) sum[c] += w.weight[a] * double(v[c]);
+  }
+  for (int c = 0; c < 3; ++c) rgb[c] = float(sum[c]);
+}
+
+void MeasuredImages::light_image(const Direction& light, std::size_t view, float* rgb) const {
+  const auto w = lights_->weights(light);
+  const std::size_t n = frame_.pixels() * 3;
+  std::vector<double> sum(n, 0.0);
+  std::vector<float> image(n);
+  for (std::size_t a = 0; a < 3; ++a) {
+    if (w.weight[a] == 0.0) continue;
+    measured_image(w.index[a], view, image.data());
+    for (std::size_t i = 0; i < n; ++i) sum[i] += w.weight[a] * double(image[i]);
+  }
+  for (std::size_t i = 0; i < n; ++i) rgb[i] = float(sum[i]);
+}
+
+namespace {
+
+// The four pixels around a tile position and their bilinear weights (pixel centres at whole
+// coordinates; the tile wraps), as render/data_evaluator.cpp weighs the data.
+struct Bilinear {
+  int x[2] = {0, 0}, y[2] = {0, 0};
+  double w[2][2] = {{0, 0}, {0, 0}};  // [dy][dx]
+};
+
+Bilinear bilinear(double qx, double qy, int width, int height) {
+  const double x = detail::tile_coordinate(qx, width), y = detail::tile_coordinate(qy, height);
+  Bilinear b;
+  b.x[0] = int(std::floor(x)) % width;
+  b.y[0] = int(std::floor(y)) % height;
+  b.x[1] = (b.x[0] + 1) % width;
+  b.y[1] = (b.y[0] + 1) % height;
+  const double fx = x - std::floor(x), fy = y - std::floor(y);
+  b.w[0][0] = (1 - fx) * (1 - fy);
+  b.w[0][1] = fx * (1 - fy);
+  b.w[1][0] = (1 - fx) * fy;
+  b.w[1][1] = fx * fy;
+  return b;
+}
+
+}  // namespace
+
+void MeasuredImages::predict(std::span<const Query> queries, std::span<float> rgb) const {
+  if (rgb.size() < queries.size() * 3)
+    throw Error(Error::Kind::kArgument, "predict: the output holds fewer than 3 floats a query");
+  for (const Query& q : queries) {
+    detail::check_direction(q.light, "light");
+    detail::check_direction(q.view, "view");
+    if (!std::isfinite(q.x) || !std::isfinite(q.y))
+      throw Error(Error::Kind::kArgument,
+                  fmt::format("query position ({}, {}) is not finite", q.x, q.y));
+  }
+  const std::ptrdiff_t n = std::ptrdiff_t(queries.size());
+#pragma omp parallel for schedule(dynamic, 64)
+  for (std::ptrdiff_t i = 0; i < n; ++i) {
+    const Query& q = queries[std::size_t(i)];
+    const auto wv = views_->weights(q.view);
+    const Bilinear b = bilinear(q.x, q.y, frame_.width, frame_.height);
+    double sum[3] = {0, 0, 0};
+    for (std::size_t a = 0; a < 3; ++a) {
+      if (wv.weight[a] == 0.0) continue;
+      for (int dy = 0; dy < 2; ++dy)
+        for (int dx = 0; dx < 2; ++dx) {
+          const double w = wv.weight[a] * b.w[dy][dx];
+          if (w == 0.0) continue;
+          float v[3];
+          light_pixel(q.light, wv.index[a], b.x[dx], b.y[dy], v);
+          for (int c = 0; c < 3; ++c) sum[c] += w * double(v[c]);
+        }
+    }
+    for (int c = 0; c < 3; ++c) rgb[std::size_t(i) * 3 + std::size_t(c)] = float(sum[c]);
+  }
+}
+
+namespace {
+
+// The index of `d` in `set`, or -1 when it is not a measured direction.
+std::ptrdiff_t measured_index(const DirectionSet& set, const Direction& d) {
+  for (std::size_t i = 0; i < set.size(); ++i)
+    if (set[i].theta_deg == d.theta_deg && set[i].phi_deg == d.phi_deg) return std::ptrdiff_t(i);
+  return -1;
+}
+
+// The tile image `tile` (W x H) repeated over an image of width x height.
+void repeat_tile(const float* tile, int tw, int th, float* out, int width, int height) {
+  for (int y = 0; y < height; ++y)
+    for (int x = 0; x < width; ++x)
+      for (int c = 0; c < 3; ++c)
+        out[(std::size_t(y) * std::size_t(width) + std::size_t(x)) * 3 + std::size_t(c)] =
+            tile[(std::size_t(y % th) * std::size_t(tw) + std::size_t(x % tw)) * 3 +
+                 std::size_t(c)];
+}
+
+}  // namespace
+
+Btf MeasuredImages::decode(const DirectionSet& lights, const DirectionSet& views, int width,
+                           int height, double /*tolerance*/) const {
+  for (const auto& d : lights) detail::check_direction(d, "light");
+  for (const auto& d : views) detail::check_direction(d, "view");
+  if (width < 1 || height < 1 || width > limits::kMaxImageSide || height > limits::kMaxImageSide)
+    throw Error(Error::Kind::kArgument, fmt::format("decode size {}x{}: give 1..{} pixels a side",
+                                                    width, height, limits::kMaxImageSide));
+  Btf out(lights, views, width, height, frame_.format);
+  out.set_origin(frame_.origin);
+  const std::size_t n = frame_.pixels() * 3;
+  const std::ptrdiff_t pairs = std::ptrdiff_t(lights.size() * views.size());
+#pragma omp parallel
+  {
+    std::vector<float> tile(n), part(n);
+    std::vector<double> sum(n);
+#pragma omp for schedule(dynamic, 1)
+    for (std::ptrdiff_t p = 0; p < pairs; ++p) {
+      const Direction& light = lights[std::size_t(p) / views.size()];
+      const Direction& view = views[std::size_t(p) % views.size()];
+      const std::ptrdiff_t li = measured_index(frame_.lights, light),
+                           vi = measured_index(frame_.views, view);
+      if (li >= 0 && vi >= 0) {
+        measured_image(std::size_t(li), std::size_t(vi), tile.data());
+      } else {
+        const auto wv = views_->weights(view);
+        std::fill(sum.begin(), sum.end(), 0.0);
+        for (std::size_t a = 0; a < 3; ++a) {
+          if (wv.weight[a] == 0.0) continue;
+          if (li >= 0)
+            measured_image(std::size_t(li), wv.index[a], part.data());
+          else
+            light_image(light, wv.index[a], part.data());
+          for (std::size_t i = 0; i < n; ++i) sum[i] += wv.weight[a] * double(part[i]);
+        }
+        for (std::size_t i = 0; i < n; ++i) tile[i] = float(sum[i]);
+      }
+      repeat_tile(tile.data(), frame_.width, frame_.height,
+                  out.image(std::size_t(p) / views.size(), std::size_t(p) % views.size()), width,
+                  height);
+    }
+  }
+  return out;
+}
+
+}  // namespace btfgmm

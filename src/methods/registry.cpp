@@ -1,0 +1,111 @@
+// The methods by name, and the model file of any method.
+#include "btfgmm/methods/registry.hpp"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <array>
+
+#include "btfgmm/core/error.hpp"
+#include "btfgmm/io/files.hpp"
+#include "btfgmm/methods/gaussian_mixture.hpp"
+#include "btfgmm/model/model_file.hpp"
+
+namespace btfgmm {
+namespace {
+
+std::unique_ptr<Representation> read_gaussian_mixture(std::span<const std::uint8_t> payload,
+                                                      std::uint32_t flags,
+                                                      const std::string& name) {
+  return std::make_unique<GaussianMixture>(read_mixture_payload(payload, flags, name));
+}
+
+// M from 10 to 1000: the mixture's own ladder (its ratio, as the paper counts it, is set
+// mostly by the mean BRDF on small tiles).
+std::vector<MethodSettings> mixture_ladder(const ModelFrame&) {
+  std::vector<MethodSettings> out;
+  for (std::size_t m : {10, 30, 100, 300, 600}) {
+    MethodSettings s;
+    s.components = m;
+    out.push_back(s);
+  }
+  return out;
+}
+
+const std::vector<MethodInfo>& table() {
+  static const std::vector<MethodInfo> methods = {
+      {"gm", "Gaussian mixture of product components over (x, y, light, view, RGB)",
+       "Haindl, Havlicek, Vacha et al. (the paper btfgmm started from)",
+       "--components M (600), --iterations (40)", fit_gaussian_mixture, read_gaussian_mixture,
+       mixture_ladder},
+  };
+  return methods;
+}
+
+// Levenshtein distance, for "did you mean".
+std::size_t edit_distance(std::string_view a, std::string_view b) {
+  std::vector<std::size_t> row(b.size() + 1);
+  for (std::size_t j = 0; j <= b.size(); ++j) row[j] = j;
+  for (std::size_t i = 1; i <= a.size(); ++i) {
+    std::size_t diag = row[0];
+    row[0] = i;
+    for (std::size_t j = 1; j <= b.size(); ++j) {
+      const std::size_t up = row[j];
+      row[j] = std::min({row[j] + 1, row[j - 1] + 1, diag + (a[i - 1] == b[j - 1] ? 0 : 1)});
+      diag = up;
+    }
+  }
+  return row[b.size()];
+}
+
+}  // namespace
+
+std::span<const MethodInfo> all_methods() {
+  return table();
+}
+
+const MethodInfo& find_method(std::string_view name) {
+  for (const MethodInfo& m : table())
+    if (m.name == name) return m;
+  std::string names, nearest;
+  std::size_t best = 3;  // suggest only names within two edits
+  for (const MethodInfo& m : table()) {
+    names += (names.empty() ? "" : ", ") + std::string(m.name);
+    const std::size_t d = edit_distance(name, m.name);
+    if (d < best) {
+      best = d;
+      nearest = std::string(m.name);
+    }
+  }
+  throw Error(
+      Error::Kind::kArgument,
+      fmt::format("unknown method '{}'{}; the methods are: {}", name,
+                  nearest.empty() ? "" : fmt::format(" (did you mean '{}'?)", nearest), names));
+}
+
+std::unique_ptr<Representation> read_representation(std::span<const std::uint8_t> bytes,
+                                                    const std::string& name) {
+  const ModelFileContents c = open_model_file(bytes, name);
+  for (const MethodInfo& m : table())
+    if (m.name == c.method) return m.read(c.payload, c.flags, name);
+  throw Error(Error::Kind::kFormat,
+              fmt::format("model file '{}' holds a '{}' model, a method this btfgmm does not "
+                          "know; use a newer btfgmm",
+                          name, c.method));
+}
+
+std::unique_ptr<Representation> load_representation(const std::filesystem::path& path) {
+  return read_representation(read_whole_file(path, "model file"), path.string());
+}
+
+std::vector<std::uint8_t> representation_file_bytes(const Representation& r) {
+  return model_file_bytes(r.method(), r.file_flags(), r.payload());
+}
+
+std::uint64_t save_representation(const Representation& r, const std::filesystem::path& path) {
+  const auto bytes = representation_file_bytes(r);
+  write_file_atomically(path, bytes, "model file");
+  return bytes.size();
+}
+
+}  // namespace btfgmm

@@ -1,0 +1,25 @@
+// What every representation shares: its frame and its compression ratios.
+#include "btfgmm/methods/representation.hpp"
+
+namespace btfgmm {
+
+ModelFrame ModelFrame::of(const Btf& tile) {
+  ModelFrame f;
+  f.lights = tile.lights();
+  f.views = tile.views();
+  f.width = tile.width();
+  f.height = tile.height();
+  f.origin = tile.origin();
+  f.format = tile.format();
+  return f;
+}
+
+double Representation::paper_ratio() const {
+  return frame().data_values() / double(parameter_count());
+}
+
+double Representation::file_ratio(std::uint64_t file_bytes) const {
+  return frame().data_values() / double(file_bytes);
+}
+
+}  // namespace btfgmm
