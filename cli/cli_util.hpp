@@ -147,7 +147,7 @@ inline bool is_model_path(const std::filesystem::path& p) {
   return btfgmm::lower(p.extension().string()) != ".zip";
 }
 
-// How a model was fitted, for --json output (info, compare).
+// How a Gaussian mixture was fitted, for --json output (info, compare).
 inline void put_fit_settings(nlohmann::json& j, const btfgmm::BtfModel& m) {
   const auto& s = m.settings;
   j["components"] = m.mixture.size();
@@ -158,6 +158,29 @@ inline void put_fit_settings(nlohmann::json& j, const btfgmm::BtfModel& m) {
   j["epsilon"] = s.epsilon;
   j["seed"] = s.seed;
   j["precision"] = m.precision == btfgmm::Precision::kF16 ? "f16" : "f32";
+}
+
+// Any model, for --json output (info, compare): its method, size, stored values and named
+// facts; for a Gaussian mixture also how it was fitted.
+inline void put_model_json(nlohmann::json& j, const btfgmm::Representation& r) {
+  j["method"] = std::string(r.method());
+  j["size"] = r.size_text();
+  j["parameters"] = r.parameter_count();
+  nlohmann::json details = nlohmann::json::object();
+  for (const auto& [k, v] : r.details()) details[k] = v;
+  j["details"] = details;
+  if (const auto* gm = dynamic_cast<const btfgmm::GaussianMixture*>(&r)) {
+    put_fit_settings(j, gm->model());
+    j["log_likelihood"] = gm->model().settings.log_likelihood;
+  }
+}
+
+// The lines `info` and `compare` print for a model's method, size and facts.
+inline void print_model_lines(const btfgmm::Representation& r) {
+  const btfgmm::MethodInfo& m = btfgmm::find_method(r.method());
+  fmt::print("  method       {}: {} ({})\n", m.name, m.title, m.citation);
+  fmt::print("  size         {}, {} values stored\n", r.size_text(), r.parameter_count());
+  for (const auto& [k, v] : r.details()) fmt::print("  {:<12} {}\n", k, v);
 }
 
 }  // namespace btfgmm::cli

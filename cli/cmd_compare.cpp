@@ -35,7 +35,7 @@ bool same_tile(const Tile& a, const Tile& b) {
   return a.x == b.x && a.y == b.y && a.width == b.width && a.height == b.height;
 }
 
-std::string pair_text(const BtfModel& m, std::size_t image) {
+std::string pair_text(const ModelFrame& m, std::size_t image) {
   const std::size_t nv = m.views.size();
   const Direction& l = m.lights[image / nv];
   const Direction& v = m.views[image % nv];
@@ -43,7 +43,7 @@ std::string pair_text(const BtfModel& m, std::size_t image) {
                      v.phi_deg);
 }
 
-nlohmann::json image_json(const BtfModel& m, const BtfQuality& q, std::size_t image) {
+nlohmann::json image_json(const ModelFrame& m, const BtfQuality& q, std::size_t image) {
   const std::size_t nv = m.views.size();
   const Direction& l = m.lights[image / nv];
   const Direction& v = m.views[image % nv];
@@ -56,9 +56,8 @@ nlohmann::json image_json(const BtfModel& m, const BtfQuality& q, std::size_t im
 }
 
 nlohmann::json comparison_json(const std::string& btf, const ModelComparison& c) {
-  const BtfModel& m = c.model;
+  const ModelFrame& m = c.model->frame();
   const BtfQuality& q = c.quality;
-  const auto& s = m.settings;
   nlohmann::json j;
   j["btf"] = btf;
   j["model"] = c.name;
@@ -81,12 +80,12 @@ nlohmann::json comparison_json(const std::string& btf, const ModelComparison& c)
   j["mean_brdf_only"] = {{"rmse", c.mean_brdf_only.rmse},
                          {"psnr_db", c.mean_brdf_only.psnr_db},
                          {"ssim", c.mean_brdf_only.ssim}};
-  j["compression_ratio_paper"] = m.compression_ratio_paper();
-  j["compression_ratio_file"] = m.compression_ratio_file(c.file_bytes);
+  j["compression_ratio_paper"] = c.model->paper_ratio();
+  j["compression_ratio_file"] = c.model->file_ratio(c.file_bytes);
   j["file_bytes"] = c.file_bytes;
-  put_fit_settings(j, m);
-  j["log_likelihood"] = s.log_likelihood;
-  if (s.seconds > 0) j["fit_seconds"] = s.seconds;  // when the model file holds it
+  put_model_json(j, *c.model);
+  j["decode_seconds"] = c.decode_seconds;
+  if (c.fit_seconds > 0) j["fit_seconds"] = c.fit_seconds;
   return j;
 }
 
@@ -95,19 +94,13 @@ std::string db(double v) {
 }
 
 void print_comparison(const ModelComparison& c) {
-  const BtfModel& m = c.model;
+  const ModelFrame& m = c.model->frame();
   const BtfQuality& q = c.quality;
-  const auto& s = m.settings;
   fmt::print("{}\n", c.name);
   fmt::print("  tile         {}x{} pixels at ({}, {}), {} lights x {} views, {} data\n",
              c.tile.width, c.tile.height, c.tile.x, c.tile.y, m.lights.size(), m.views.size(),
              to_string(m.format));
-  fmt::print(
-      "  fit          M = {} ({} requested, {} dropped), {} of at most {} iterations, "
-      "epsilon {:g}, seed {}, {}{}\n",
-      m.mixture.size(), s.components, s.dropped, s.iterations, s.max_iterations, s.epsilon, s.seed,
-      m.precision == Precision::kF16 ? "f16" : "f32",
-      s.seconds > 0 ? ", " + human_seconds(s.seconds) : std::string());
+  print_model_lines(*c.model);
   fmt::print("               {:>8} {:>8} {:>8} {:>8}   {:<44} {}\n", "overall", "red", "green",
              "blue", "worst image", "best image");
   const bool hdr = m.format == SampleFormat::kHdr;  // any scale: significant digits
@@ -125,11 +118,13 @@ void print_comparison(const ModelComparison& c) {
              q.ssim_rgb[0], q.ssim_rgb[1], q.ssim_rgb[2],
              fmt::format("{:>7.4f}  {}", q.images[q.worst_ssim].ssim, pair_text(m, q.worst_ssim)),
              fmt::format("{:>7.4f}  {}", q.images[q.best_ssim].ssim, pair_text(m, q.best_ssim)));
-  fmt::print("  mean BRDF    alone (no mixture): RMSE {}, PSNR {} dB, SSIM {:.4f}\n",
-             rm(c.mean_brdf_only.rmse), db(c.mean_brdf_only.psnr_db), c.mean_brdf_only.ssim);
+  fmt::print(
+      "  mean BRDF    alone (each image its mean colour): RMSE {}, PSNR {} dB, SSIM {:.4f}\n",
+      rm(c.mean_brdf_only.rmse), db(c.mean_brdf_only.psnr_db), c.mean_brdf_only.ssim);
   fmt::print("  compression  1:{:.1f} by the paper's count, 1:{:.1f} by the file's {} bytes ({})\n",
-             m.compression_ratio_paper(), m.compression_ratio_file(c.file_bytes), c.file_bytes,
+             c.model->paper_ratio(), c.model->file_ratio(c.file_bytes), c.file_bytes,
              human_bytes(double(c.file_bytes)));
+  fmt::print("  decoded      every image of the tile in {}\n", human_seconds(c.decode_seconds));
   fmt::print(
       "  measured     {}; PSNR = 20 log10(R / RMSE); SSIM {}x{} Gaussian window, sigma "
       "1.5, K1 0.01, K2 0.03, no padding{}\n",
@@ -148,7 +143,7 @@ void run_compare(const CompareOptions& o) {
   btfgmm::CompareOptions co;
   co.worst_pairs = o.worst;
   // Every model is read and checked against the BTF before any work.
-  std::vector<BtfModel> models;
+  std::vector<std::shared_ptr<const Representation>> models;
   for (const std::string& path : o.models) {
     std::error_code ec;
     if (!fs::exists(path, ec))
@@ -161,7 +156,7 @@ void run_compare(const CompareOptions& o) {
                   fmt::format("'{}' is not a model file; give the BTF first, then one or more "
                               ".btfgmm models written by btfgmm fit",
                               path));
-    const BtfModel& m = models.emplace_back(load_model(path));
+    const ModelFrame& m = models.emplace_back(load_representation(path))->frame();
     if (!(m.lights == info.lights) || !(m.views == info.views))
       throw Error(
           Error::Kind::kArgument,
@@ -189,11 +184,12 @@ void run_compare(const CompareOptions& o) {
   }
   for (std::size_t k = 0; k < models.size(); ++k) {
     const auto t0 = Clock::now();
-    const BtfModel& m = models[k];
+    const ModelFrame& m = models[k]->frame();
     const std::string& path = o.models[k];
     const Tile tile{m.origin.x, m.origin.y, m.width, m.height};
     if (!tile_data || !same_tile(tile_data->origin(), tile)) tile_data = src.load(tile);
-    results.push_back(compare_model(*tile_data, m, path, std::uint64_t(fs::file_size(path)), co));
+    results.push_back(
+        compare_model(*tile_data, models[k], path, std::uint64_t(fs::file_size(path)), co));
     if (!o.quiet)
       fmt::print(stderr, "compared {} with its {}x{} tile of {} in {}\n", path, tile.width,
                  tile.height, o.btf, human_seconds(seconds_since(t0)));
@@ -211,13 +207,14 @@ void run_compare(const CompareOptions& o) {
       print_comparison(results[i]);
     }
     if (results.size() > 1) {
-      fmt::print("\n{:<36} {:>6} {:>9} {:>8} {:>7} {:>10} {:>10}\n", "model", "M", "RMSE",
-                 "PSNR dB", "SSIM", "C.R. paper", "C.R. file");
+      fmt::print("\n{:<36} {:<8} {:<14} {:>9} {:>8} {:>7} {:>10} {:>10} {:>10}\n", "model",
+                 "method", "size", "RMSE", "PSNR dB", "SSIM", "C.R. paper", "C.R. file", "file");
       for (const auto& c : results)
-        fmt::print("{:<36} {:>6} {:>9.4g} {:>8} {:>7.4f} {:>10} {:>10}\n", c.name,
-                   c.model.mixture.size(), c.quality.rmse, db(c.quality.psnr_db), c.quality.ssim,
-                   fmt::format("1:{:.1f}", c.model.compression_ratio_paper()),
-                   fmt::format("1:{:.1f}", c.model.compression_ratio_file(c.file_bytes)));
+        fmt::print("{:<36} {:<8} {:<14} {:>9.4g} {:>8} {:>7.4f} {:>10} {:>10} {:>10}\n", c.name,
+                   c.model->method(), c.model->size_text(), c.quality.rmse, db(c.quality.psnr_db),
+                   c.quality.ssim, fmt::format("1:{:.1f}", c.model->paper_ratio()),
+                   fmt::format("1:{:.1f}", c.model->file_ratio(c.file_bytes)),
+                   human_bytes(double(c.file_bytes)));
     }
   }
   if (!o.report.empty()) {

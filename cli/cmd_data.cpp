@@ -93,9 +93,9 @@ void info_btf(const std::string& path, bool json) {
 }
 
 void info_model(const std::string& path, bool json) {
-  const btfgmm::BtfModel m = btfgmm::load_model(path);
+  const auto r = btfgmm::load_representation(path);
+  const btfgmm::ModelFrame& m = r->frame();
   const std::uint64_t bytes = fs::file_size(path);
-  const auto& s = m.settings;
   if (json) {
     nlohmann::json j;
     j["path"] = path;
@@ -105,29 +105,25 @@ void info_model(const std::string& path, bool json) {
     j["lights"] = m.lights.size();
     j["views"] = m.views.size();
     j["bit_depth"] = btfgmm::to_string(m.format);
-    put_fit_settings(j, m);
-    j["log_likelihood"] = s.log_likelihood;
+    put_model_json(j, *r);
     j["file_bytes"] = bytes;
-    j["compression_ratio_paper"] = m.compression_ratio_paper();
-    j["compression_ratio_file"] = m.compression_ratio_file(bytes);
+    j["compression_ratio_paper"] = r->paper_ratio();
+    j["compression_ratio_file"] = r->file_ratio(bytes);
     std::cout << j.dump(2) << "\n";
     return;
   }
   fmt::print("{}\n", path);
-  fmt::print("  model        btfgmm format {}, {} parameters\n", btfgmm::kModelFormatVersion,
-             m.precision == btfgmm::Precision::kF16 ? "16-bit float" : "32-bit float");
+  fmt::print("  model        btfgmm format {}\n", btfgmm::kModelFormatVersion);
   fmt::print("  tile         {}x{} pixels at ({}, {}) of the source, {} data\n", m.width, m.height,
              m.origin.x, m.origin.y, btfgmm::to_string(m.format));
   fmt::print("  lights       {}\n", describe_set(m.lights));
   fmt::print("  views        {}\n", describe_set(m.views));
-  fmt::print("  components   M = {} ({} requested, {} dropped by EM)\n", m.mixture.size(),
-             s.components, s.dropped);
-  fmt::print("  fit          {} of at most {} iterations, epsilon {:g}, seed {}\n", s.iterations,
-             s.max_iterations, s.epsilon, s.seed);
-  fmt::print("  log-lik.     {:.6f} per sample (model units)\n", s.log_likelihood);
+  print_model_lines(*r);
   fmt::print("  file         {} bytes ({})\n", bytes, human_bytes(double(bytes)));
-  fmt::print("  compression  1:{:.1f} by the paper's count, 1:{:.1f} by the file's bytes\n",
-             m.compression_ratio_paper(), m.compression_ratio_file(bytes));
+  fmt::print(
+      "  compression  1:{:.1f} by the paper's count (Table 2), 1:{:.1f} by the file's "
+      "bytes\n",
+      r->paper_ratio(), r->file_ratio(bytes));
 }
 
 }  // namespace

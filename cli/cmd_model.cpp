@@ -2,6 +2,7 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <array>
 #include <atomic>
 #include <csignal>
 #include <cstdlib>
@@ -9,6 +10,7 @@
 #include <iostream>
 #include <memory>
 #include <optional>
+#include <span>
 #include <string>
 
 #include "btfgmm/btfgmm.hpp"
@@ -27,9 +29,9 @@ namespace {
 // ---- fit ---------------------------------------------------------------------------------
 
 struct FitOptions {
-  std::string input, out, tile, precision = "f32";
-  std::size_t components = 600;
-  int iterations = 40;
+  std::string input, out, tile, precision, method = "gm";
+  std::size_t components = 0, clusters = 0, degree = 0;  // 0: the method's default
+  int iterations = 0;                                    // 0: the method's default
   double epsilon = 0.0;
   std::uint64_t seed = 1;
   int threads = 0;
@@ -63,7 +65,8 @@ class StopOnSignals {
 btfgmm::Precision parse_precision(const std::string& text) {
   if (text == "f32") return btfgmm::Precision::kF32;
   if (text == "f16") return btfgmm::Precision::kF16;
-  throw Error(Error::Kind::kArgument, fmt::format("--precision '{}': give f32 or f16", text));
+  throw Error(Error::Kind::kArgument,
+              fmt::format("--precision '{}': the Gaussian mixture stores f32 or f16", text));
 }
 
 // A new fit, as the options ask.
@@ -75,11 +78,11 @@ btfgmm::FitRequest new_fit_request(const FitOptions& o) {
   btfgmm::FitRequest r;
   r.input = o.input;
   r.output = o.out;
-  r.config.components = o.components;
+  r.config.components = o.components ? o.components : 600;
   r.config.seed = o.seed;
-  r.config.em.max_iterations = o.iterations;
+  r.config.em.max_iterations = o.iterations ? o.iterations : 40;
   r.config.em.epsilon = o.epsilon;
-  r.precision = parse_precision(o.precision);
+  r.precision = parse_precision(o.precision.empty() ? "f32" : o.precision);
   r.checkpoint = o.checkpoint;
   return r;
 }
@@ -131,7 +134,65 @@ void print_written(const std::string& out, const btfgmm::FitOutcome& fit) {
              model.compression_ratio_file(fit.file_bytes), human_seconds(model.settings.seconds));
 }
 
+// ---- fit --method: any other method ------------------------------------------------------
+
+// Options of the mixture's EM that another method cannot use are errors, never ignored.
+void check_method_options(const FitOptions& o) {
+  auto refuse = [&](bool given, const char* option) {
+    if (given)
+      throw Error(Error::Kind::kArgument,
+                  fmt::format("{} applies to the Gaussian mixture's EM (--method gm) only, not to "
+                              "--method {}; leave it out",
+                              option, o.method));
+  };
+  refuse(o.epsilon != 0.0, "--epsilon");
+  refuse(!o.checkpoint.empty(), "--checkpoint");
+  refuse(o.checkpoint_every != 1, "--checkpoint-every");
+  refuse(!o.resume.empty(), "--resume");
+  if (o.input.empty() || o.out.empty())
+    throw Error(Error::Kind::kArgument, "fit needs an input BTF and -o MODEL");
+}
+
+void run_method_fit(const FitOptions& o) {
+  check_method_options(o);
+  const btfgmm::MethodInfo& method = btfgmm::find_method(o.method);
+  btfgmm::MethodSettings s;
+  s.components = o.components;
+  s.clusters = o.clusters;
+  s.degree = o.degree;
+  s.iterations = o.iterations;
+  s.seed = o.seed;
+  s.threads = o.threads;
+  if (!o.precision.empty()) s.encoding = btfgmm::parse_factor_encoding(o.precision, "--precision");
+  check_output_file(o.out, o.overwrite);
+  const auto t0 = Clock::now();
+  const btfgmm::BtfSource src = btfgmm::BtfSource::open(o.input);
+  const btfgmm::Tile tile = o.tile.empty() ? btfgmm::Tile{0, 0, src.info().width, src.info().height}
+                                           : tile_option(src, o.tile, o.quiet);
+  const btfgmm::Btf btf = src.load(tile);
+  if (!o.quiet) print_loaded(btf, seconds_since(t0));
+  if (!o.quiet)
+    s.progress = [&](double fraction, std::string_view stage) {
+      fmt::print(stderr, "{} {:>5.1f}%  {}\n", o.method, 100.0 * fraction, stage);
+    };
+  const auto t1 = Clock::now();
+  const std::unique_ptr<btfgmm::Representation> r = method.fit(btf, s);
+  const double fit_seconds = seconds_since(t1);
+  const std::uint64_t bytes = btfgmm::save_representation(*r, o.out);
+  fmt::print(stderr,
+             "wrote {}: {} {}, {} values, {} bytes, compression 1:{:.1f} (paper's count) / "
+             "1:{:.1f} (file), fit in {}\n",
+             o.out, o.method, r->size_text(), r->parameter_count(), bytes, r->paper_ratio(),
+             r->file_ratio(bytes), human_seconds(fit_seconds));
+}
+
 void run_fit(const FitOptions& o) {
+  if (o.method != btfgmm::kMixtureMethod) return run_method_fit(o);
+  if (o.clusters != 0 || o.degree != 0)
+    throw Error(Error::Kind::kArgument,
+                fmt::format("{} applies to {} only, not to the Gaussian mixture; leave it out",
+                            o.clusters ? "--clusters" : "--degree",
+                            o.clusters ? "--method lpca" : "--method plm-rf"));
   btfgmm::FitRequest r = fit_request(o);
   check_output_file(r.output, o.overwrite || r.resume);
   if (!r.checkpoint.empty()) check_output_file(r.checkpoint, true);
@@ -171,7 +232,8 @@ struct DecodeOptions {
 };
 
 void run_decode(const DecodeOptions& o) {
-  const btfgmm::BtfModel m = btfgmm::load_model(o.model);
+  const auto model = btfgmm::load_representation(o.model);
+  const btfgmm::ModelFrame& m = model->frame();
   check_output_folder(o.out, o.overwrite);
   auto directions = [](const std::vector<std::string>& given, const btfgmm::DirectionSet& all,
                        const char* option) {
@@ -187,7 +249,7 @@ void run_decode(const DecodeOptions& o) {
   // One light at a time: a large repeated size need not fit in memory at once.
   for (std::size_t l = 0; l < lights.size(); ++l) {
     const btfgmm::Btf part =
-        btfgmm::decode(m, btfgmm::DirectionSet({lights[l]}), views, w, h, o.tolerance);
+        model->decode(btfgmm::DirectionSet({lights[l]}), views, w, h, o.tolerance);
     btfgmm::write_utia(part, o.out);
   }
   fmt::print(stderr, "wrote {} images of {}x{} pixels to {} in {}\n", lights.size() * views.size(),
@@ -203,10 +265,11 @@ struct EvalOptions {
 };
 
 void run_eval(const EvalOptions& o) {
-  const btfgmm::BtfModel m = btfgmm::load_model(o.model);
+  const auto model = btfgmm::load_representation(o.model);
   const btfgmm::Query q{o.x, o.y, parse_direction(o.light, "--light"),
                         parse_direction(o.view, "--view")};
-  const auto rgb = btfgmm::predict(m, q);
+  std::array<float, 3> rgb{};
+  model->predict(std::span(&q, 1), rgb);
   if (o.json) {
     nlohmann::json j;
     j["x"] = o.x;
@@ -222,19 +285,35 @@ void run_eval(const EvalOptions& o) {
 
 // ---- the subcommands ---------------------------------------------------------------------
 
+// --method's help: every method with its paper.
+std::string method_help() {
+  std::string h = "The representation to fit:";
+  for (const btfgmm::MethodInfo& m : btfgmm::all_methods())
+    h += fmt::format("\n  {:<8} {} ({})", m.name, m.title, m.citation);
+  return h;
+}
+
 void register_fit(CLI::App& app, Commands& commands) {
   auto fit = std::make_shared<FitOptions>();
-  auto* f = app.add_subcommand("fit", "Fit the Gaussian mixture model to a BTF tile");
+  auto* f = app.add_subcommand(
+      "fit", "Fit a model to a BTF tile: the Gaussian mixture (default) or another method");
   f->add_option("input", fit->input, "A BTF folder or Bonn .zip");
   f->add_option("--tile", fit->tile,
                 "X,Y,W,H of the tile to fit, or auto:WxH for the most seamless tile of that size "
                 "(default: the whole image)");
-  f->add_option("--components,-M", fit->components, "Number of mixture components M")
-      ->check(CLI::Range(std::size_t(1), std::size_t(100000)))
-      ->capture_default_str();
-  f->add_option("--iterations", fit->iterations, "Maximum EM iterations")
-      ->check(CLI::Range(1, 100000))
-      ->capture_default_str();
+  f->add_option("--method", fit->method, method_help())->capture_default_str();
+  f->add_option("--components,-M", fit->components,
+                "The model's size: mixture components M (gm, default 600), eigen-images c "
+                "(pca-btf, pca-rf) or components per cluster (lpca); default: the method's")
+      ->check(CLI::Range(std::size_t(1), std::size_t(100000)));
+  f->add_option("--clusters", fit->clusters, "lpca: the number of clusters k")
+      ->check(CLI::Range(std::size_t(1), std::size_t(100000)));
+  f->add_option("--degree", fit->degree, "plm-rf: the degree of the per-image polynomial")
+      ->check(CLI::Range(std::size_t(0), std::size_t(64)));
+  f->add_option("--iterations", fit->iterations,
+                "Maximum EM iterations (gm, default 40), re-assignment rounds (lpca) or "
+                "Levenberg-Marquardt steps (plm-rf)")
+      ->check(CLI::Range(1, 100000));
   f->add_option("--epsilon", fit->epsilon, "Stop when the relative gain of L is below this")
       ->check(CLI::Range(0.0, 1.0))
       ->capture_default_str();
@@ -244,8 +323,9 @@ void register_fit(CLI::App& app, Commands& commands) {
                 "on it)")
       ->check(CLI::Range(0, 1024))
       ->capture_default_str();
-  f->add_option("--precision", fit->precision, "Parameters stored as f32 or f16")
-      ->capture_default_str();
+  f->add_option("--precision", fit->precision,
+                "Parameters stored as f32 or f16 (gm, default f32), or f32, f16 or q8 (8 bits "
+                "with an offset and scale per component; other methods, default f16)");
   f->add_option("-o,--output", fit->out, "The model file to write (.btfgmm)");
   f->add_option("--checkpoint", fit->checkpoint,
                 "Save the fit's state here (atomically) every --checkpoint-every iterations and "

@@ -123,30 +123,32 @@ void run_render(const RenderOptions& o) {
   }
 
   const auto t0 = Clock::now();
-  std::optional<btfgmm::BtfModel> model;
+  std::shared_ptr<const btfgmm::Representation> model;
   std::optional<btfgmm::Btf> data;
   if (model_input) {
-    model = btfgmm::load_model(o.input);
+    model = btfgmm::load_representation(o.input);
     if (!o.compare.empty()) {
-      data = load_data(o.compare, o.tile, model->origin, o.quiet);
-      if (data->width() != model->width || data->height() != model->height)
+      data = load_data(o.compare, o.tile, model->frame().origin, o.quiet);
+      if (data->width() != model->frame().width || data->height() != model->frame().height)
         throw Error(Error::Kind::kArgument,
                     fmt::format("the data tile is {}x{} pixels and the model's {}x{}: compare the "
                                 "model with the tile it was fitted to (the default) or one of "
                                 "its size",
-                                data->width(), data->height(), model->width, model->height));
+                                data->width(), data->height(), model->frame().width,
+                                model->frame().height));
     }
   } else {
     data = load_data(o.input, o.tile, {}, o.quiet);
   }
   const double load_seconds = seconds_since(t0);
-  const int tw = model ? model->width : data->width(), th = model ? model->height : data->height();
-  const btfgmm::SampleFormat format = model ? model->format : data->format();
+  const int tw = model ? model->frame().width : data->width(),
+            th = model ? model->frame().height : data->height();
+  const btfgmm::SampleFormat format = model ? model->frame().format : data->format();
   const btfgmm::SurfaceBuffer surface = btfgmm::rasterize(mesh, camera, light, s, tw, th);
 
   std::optional<btfgmm::Rendering> model_img, data_img;
   if (model) {
-    const btfgmm::ModelEvaluator ev(*model, s.tolerance);
+    const btfgmm::RepresentationEvaluator ev(model, s.tolerance);
     model_img = btfgmm::render(surface, ev, s, format);
   }
   if (data) {
@@ -164,14 +166,22 @@ void run_render(const RenderOptions& o) {
   if (model_img) {
     const auto& st = model_img->stats;
     j["model"] = stats_json(*model_img);
-    j["model"]["components"] = model->mixture.size();
-    summary += fmt::format(
-        "model (M = {}): {} in {:.3f} s + geometry {:.3f} s; {:.0f} M component evaluations "
-        "nominal ({:.2f} G/s), {:.0f} M evaluated after skipping (tolerance {:g} levels)\n",
-        model->mixture.size(), fmt::format("{} lit pixels", st.points), st.seconds, surface.seconds,
-        double(st.nominal) * 1e-6,
-        double(st.nominal) * 1e-9 / std::max(st.seconds + surface.seconds, 1e-9),
-        double(st.evaluated) * 1e-6, s.tolerance);
+    j["model"]["method"] = std::string(model->method());
+    j["model"]["size"] = model->size_text();
+    if (model->method() == btfgmm::kMixtureMethod) {
+      j["model"]["components"] = std::size_t(model->size_order());
+      summary += fmt::format(
+          "model ({}): {} in {:.3f} s + geometry {:.3f} s; {:.0f} M component evaluations "
+          "nominal ({:.2f} G/s), {:.0f} M evaluated after skipping (tolerance {:g} levels)\n",
+          model->size_text(), fmt::format("{} lit pixels", st.points), st.seconds, surface.seconds,
+          double(st.nominal) * 1e-6,
+          double(st.nominal) * 1e-9 / std::max(st.seconds + surface.seconds, 1e-9),
+          double(st.evaluated) * 1e-6, s.tolerance);
+    } else {
+      summary +=
+          fmt::format("model ({} {}): {} lit pixels in {:.3f} s + geometry {:.3f} s\n",
+                      model->method(), model->size_text(), st.points, st.seconds, surface.seconds);
+    }
   }
   if (data_img) {
     j["data"] = stats_json(*data_img);

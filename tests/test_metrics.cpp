@@ -414,11 +414,11 @@ TEST(Report, CompressionRatioChartIsLinearThroughTheModels) {
   const auto& points = c.series[3].points;  // the paper's count
   ASSERT_EQ(points.size(), 2u);
   EXPECT_EQ(points[0][0], 144.0);
-  EXPECT_DOUBLE_EQ(points[0][1], cs[0].model.compression_ratio_paper());
+  EXPECT_DOUBLE_EQ(points[0][1], cs[0].model->paper_ratio());
   // Each model's point lies on the line of its M.
   const auto& line4 = c.series[0];
   EXPECT_NEAR(line4.points[1][1] / line4.points[1][0] * 144.0, points[0][1], 1e-9);
-  EXPECT_DOUBLE_EQ(c.series[4].points[1][1], cs[1].model.compression_ratio_file(9000));
+  EXPECT_DOUBLE_EQ(c.series[4].points[1][1], cs[1].model->file_ratio(9000));
 }
 
 TEST(Report, WritesASelfContainedReport) {

@@ -47,6 +47,7 @@
 #include "btfgmm/render/model_evaluator.hpp"
 #include "btfgmm/render/rasterize.hpp"
 #include "btfgmm/render/render.hpp"
+#include "btfgmm/render/representation_evaluator.hpp"
 // report: pictures, charts and the HTML report
 #include "btfgmm/report/chart.hpp"
 #include "btfgmm/report/pictures.hpp"

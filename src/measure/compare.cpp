@@ -6,6 +6,8 @@
 #include <algorithm>
 
 #include "btfgmm/core/error.hpp"
+#include "btfgmm/core/text.hpp"
+#include "btfgmm/methods/gaussian_mixture.hpp"
 #include "btfgmm/model/decode.hpp"
 #include "btfgmm/model/predict.hpp"
 #include "btfgmm/model/samples.hpp"
@@ -15,7 +17,7 @@ namespace btfgmm {
 namespace {
 
 // A model is compared only with the tile it was fitted to: the same direction sets and size.
-void check_fitted_to(const Btf& original, const BtfModel& model, const std::string& name) {
+void check_fitted_to(const Btf& original, const ModelFrame& model, const std::string& name) {
   if (!(original.lights() == model.lights) || !(original.views() == model.views))
     throw Error(Error::Kind::kArgument,
                 fmt::format("{}: the model was fitted to {} lights x {} views, the BTF has {} x {} "
@@ -85,20 +87,32 @@ void picture_pairs(ModelComparison& c, const Btf& original, const Btf& decoded,
 
 }  // namespace
 
-ModelComparison compare_model(const Btf& original, const BtfModel& model, const std::string& name,
-                              std::uint64_t file_bytes, const CompareOptions& options) {
-  check_fitted_to(original, model, name);
-  const Btf decoded = decode(model, model.lights, model.views, model.width, model.height);
+ModelComparison compare_model(const Btf& original, std::shared_ptr<const Representation> model,
+                              const std::string& name, std::uint64_t file_bytes,
+                              const CompareOptions& options) {
+  const ModelFrame& f = model->frame();
+  check_fitted_to(original, f, name);
+  const auto t0 = Clock::now();
+  const Btf decoded = model->decode(f.lights, f.views, f.width, f.height, kDecodeTolerance);
   ModelComparison c;
+  c.decode_seconds = seconds_since(t0);
   c.name = name;
-  c.model = model;
+  c.model = std::move(model);
   c.file_bytes = file_bytes;
-  c.tile = {model.origin.x, model.origin.y, model.width, model.height};
+  c.tile = {f.origin.x, f.origin.y, f.width, f.height};
   c.quality = measure_quality(original, decoded, 0.0, options.ssim);
   c.mean_brdf = mean_brdf(original);
   c.mean_brdf_only = measure_quality(original, mean_brdf_alone(original, c.mean_brdf),
                                      c.quality.range, options.ssim);
   picture_pairs(c, original, decoded, options.worst_pairs);
+  return c;
+}
+
+ModelComparison compare_model(const Btf& original, const BtfModel& model, const std::string& name,
+                              std::uint64_t file_bytes, const CompareOptions& options) {
+  ModelComparison c =
+      compare_model(original, std::make_shared<GaussianMixture>(model), name, file_bytes, options);
+  c.fit_seconds = model.settings.seconds;
   return c;
 }
 

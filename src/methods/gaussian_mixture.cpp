@@ -51,9 +51,9 @@ std::vector<std::pair<std::string, std::string>> GaussianMixture::details() cons
   return {
       {"components", fmt::format("{} ({} requested, {} dropped by EM)", model_.mixture.size(),
                                  s.components, s.dropped)},
-      {"EM iterations", fmt::format("{} of at most {}", s.iterations, s.max_iterations)},
-      {"log-likelihood", fmt::format("{:.6f} per sample (model units)", s.log_likelihood)},
-      {"seed", fmt::format("{}", s.seed)},
+      {"fit", fmt::format("{} of at most {} EM iterations, epsilon {:g}, seed {}", s.iterations,
+                          s.max_iterations, s.epsilon, s.seed)},
+      {"log-lik.", fmt::format("{:.6f} per sample (model units)", s.log_likelihood)},
       {"precision", model_.precision == Precision::kF16 ? "16-bit float" : "32-bit float"},
   };
 }

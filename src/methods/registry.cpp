@@ -35,9 +35,8 @@ std::vector<MethodSettings> mixture_ladder(const ModelFrame&) {
 const std::vector<MethodInfo>& table() {
   static const std::vector<MethodInfo> methods = {
       {"gm", "Gaussian mixture of product components over (x, y, light, view, RGB)",
-       "Haindl, Havlicek, Vacha et al. (the paper btfgmm started from)",
-       "--components M (600), --iterations (40)", fit_gaussian_mixture, read_gaussian_mixture,
-       mixture_ladder},
+       "the paper btfgmm started from, Eq. (1)-(11)", "--components M (600), --iterations (40)",
+       fit_gaussian_mixture, read_gaussian_mixture, mixture_ladder},
   };
   return methods;
 }

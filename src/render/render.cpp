@@ -56,6 +56,15 @@ Rendering render(const SurfaceBuffer& surface, const ModelEvaluator& model,
   return r;
 }
 
+Rendering render(const SurfaceBuffer& surface, const RepresentationEvaluator& model,
+                 const RenderSettings& settings, SampleFormat format) {
+  std::vector<float> rgb(surface.points.size() * 3);
+  const EvaluationStats st = model.evaluate(surface.points, rgb, surface.block_start);
+  Rendering r = compose(surface, rgb, settings, format);
+  r.stats = st;
+  return r;
+}
+
 Rendering render(const SurfaceBuffer& surface, const DataEvaluator& data,
                  const RenderSettings& settings, SampleFormat format) {
   std::vector<float> rgb(surface.points.size() * 3);

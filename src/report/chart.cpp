@@ -9,6 +9,7 @@
 #include <set>
 
 #include "btfgmm/core/error.hpp"
+#include "btfgmm/model/model_file.hpp"
 #include "report/svg.hpp"
 
 namespace btfgmm {
@@ -18,9 +19,8 @@ namespace {
 using svg::escape;
 using svg::tick_text;
 
-constexpr const char* kPalette[] = {"#2563eb", "#dc2626", "#16a34a", "#9333ea",
-                                    "#ea580c", "#0891b2", "#be185d", "#4d7c0f"};
-constexpr std::size_t kPaletteSize = sizeof(kPalette) / sizeof(kPalette[0]);
+using svg::kPalette;
+using svg::kPaletteSize;
 
 // The plot area of a chart and its axes: data coordinates to pixels.
 struct PlotArea {
@@ -165,12 +165,13 @@ std::string svg_chart(const Chart& chart) {
 Chart compression_ratio_chart(std::span<const ModelComparison> models) {
   if (models.empty())
     throw Error(Error::Kind::kArgument, "compression ratio chart: give at least one model");
-  const std::size_t ni = models[0].model.lights.size(), nv = models[0].model.views.size();
+  const std::size_t ni = models[0].model->frame().lights.size(),
+                    nv = models[0].model->frame().views.size();
   double max_pixels = 4096.0;  // the paper's 64 x 64 fit
   std::set<std::size_t> ms{600};
   for (const auto& m : models) {
-    max_pixels = std::max(max_pixels, 1.25 * double(m.model.width) * double(m.model.height));
-    ms.insert(m.model.mixture.size());
+    max_pixels = std::max(max_pixels, 1.25 * double(m.model->frame().pixels()));
+    if (m.model->method() == kMixtureMethod) ms.insert(std::size_t(m.model->size_order()));
   }
   Chart c;
   c.title = fmt::format("Compression ratio against tile size ({} x {} directions)", ni, nv);
@@ -181,8 +182,9 @@ Chart compression_ratio_chart(std::span<const ModelComparison> models) {
   for (std::size_t m : ms) {
     ChartSeries s;
     s.points = {{0.0, 0.0}, {max_pixels, paper_compression_ratio(max_pixels, ni, nv, m)}};
-    const bool used = std::any_of(models.begin(), models.end(),
-                                  [&](const auto& x) { return x.model.mixture.size() == m; });
+    const bool used = std::any_of(models.begin(), models.end(), [&](const auto& x) {
+      return x.model->method() == kMixtureMethod && std::size_t(x.model->size_order()) == m;
+    });
     if (used) {
       s.label = fmt::format("M = {}", m);
       s.colour = kPalette[colour++ % kPaletteSize];
@@ -201,9 +203,9 @@ Chart compression_ratio_chart(std::span<const ModelComparison> models) {
   paper.markers = file.markers = true;
   file.hollow = true;
   for (const auto& m : models) {
-    const double px = double(m.model.width) * double(m.model.height);
-    paper.points.push_back({px, m.model.compression_ratio_paper()});
-    if (m.file_bytes > 0) file.points.push_back({px, m.model.compression_ratio_file(m.file_bytes)});
+    const double px = double(m.model->frame().pixels());
+    paper.points.push_back({px, m.model->paper_ratio()});
+    if (m.file_bytes > 0) file.points.push_back({px, m.model->file_ratio(m.file_bytes)});
   }
   c.series.push_back(paper);
   if (!file.points.empty()) c.series.push_back(file);

@@ -12,6 +12,7 @@
 #include "btfgmm/core/error.hpp"
 #include "btfgmm/core/text.hpp"
 #include "btfgmm/io/files.hpp"
+#include "btfgmm/model/model_file.hpp"
 #include "report/grid.hpp"
 #include "report/svg.hpp"
 
@@ -109,7 +110,7 @@ code{font-size:12px;background:#f3f4f6;padding:0 3px;border-radius:3px}
 )";
 
 std::string page_head(const std::string& btf_name, std::span<const ModelComparison> models) {
-  const BtfModel& m0 = models[0].model;
+  const ModelFrame& m0 = models[0].model->frame();
   std::string h;
   h += "<!doctype html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">";
   h += fmt::format("<title>btfgmm compare: {}</title>", escape(btf_name));
@@ -141,19 +142,23 @@ std::string cards(const ModelComparison& c) {
   s += card("SSIM", fmt::format("{:.3f}", q.ssim),
             fmt::format("worst image {:.3f} &middot; mean BRDF alone {:.3f}",
                         q.images[q.worst_ssim].ssim, c.mean_brdf_only.ssim));
-  s += card("RMSE", rmse_text(q.rmse, c.model.format),
+  const SampleFormat format = c.model->frame().format;
+  s += card("RMSE", rmse_text(q.rmse, format),
             fmt::format("{} &middot; mean BRDF alone {}",
-                        c.model.format == SampleFormat::kHdr ? "data units" : "levels of 0-255",
-                        rmse_text(c.mean_brdf_only.rmse, c.model.format)));
-  s += card("Compression", ratio(c.model.compression_ratio_paper()),
+                        format == SampleFormat::kHdr ? "data units" : "levels of 0-255",
+                        rmse_text(c.mean_brdf_only.rmse, format)));
+  s += card("Compression", ratio(c.model->paper_ratio()),
             c.file_bytes > 0 ? fmt::format("paper's count &middot; file {} ({})",
-                                           ratio(c.model.compression_ratio_file(c.file_bytes)),
+                                           ratio(c.model->file_ratio(c.file_bytes)),
                                            human_bytes(double(c.file_bytes)))
                              : std::string("paper's count"));
-  s += card(
-      "Components", fmt::format("M = {}", c.model.mixture.size()),
-      fmt::format("{} requested, {} dropped &middot; {} iterations", c.model.settings.components,
-                  c.model.settings.dropped, c.model.settings.iterations));
+  std::string facts;
+  for (const auto& [k, v] : c.model->details())
+    facts += fmt::format("{}{}: {}", facts.empty() ? "" : " &middot; ", escape(k), escape(v));
+  s += card("Model",
+            fmt::format("{} <small>{}</small>", escape(std::string(c.model->method())),
+                        escape(c.model->size_text())),
+            facts);
   s += "</div>";
   return s;
 }
@@ -163,18 +168,18 @@ std::string cards(const ModelComparison& c) {
 std::string model_row(const ModelComparison& c) {
   const BtfQuality& q = c.quality;
   const std::size_t w = q.worst_psnr;
+  const ModelFrame& f = c.model->frame();
   return fmt::format(
-      "<tr><td>{}</td><td>{}</td><td>{} <span class=\"note\">({} req.)</span></td><td>{}</td>"
+      "<tr><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td>"
       "<td>{}</td><td>{}</td><td>{:.3f}</td><td>{} ({}; {})</td><td>{}</td><td>{}</td>"
       "<td>{}</td><td>{}</td></tr>",
-      escape(c.name), tile_text(c.tile), c.model.mixture.size(), c.model.settings.components,
-      c.model.settings.iterations, rmse_text(q.rmse, c.model.format), db(q.psnr_db), q.ssim,
-      db(q.images[w].psnr_db), angles(c.model.lights[w / q.views]),
-      angles(c.model.views[w % q.views]), ratio(c.model.compression_ratio_paper()),
-      c.file_bytes ? ratio(c.model.compression_ratio_file(c.file_bytes)) : "",
+      escape(c.name), escape(std::string(c.model->method())), escape(c.model->size_text()),
+      tile_text(c.tile), c.model->parameter_count(), rmse_text(q.rmse, f.format), db(q.psnr_db),
+      q.ssim, db(q.images[w].psnr_db), angles(f.lights[w / q.views]), angles(f.views[w % q.views]),
+      ratio(c.model->paper_ratio()), c.file_bytes ? ratio(c.model->file_ratio(c.file_bytes)) : "",
       c.file_bytes ? human_bytes(double(c.file_bytes)) : "",
       // Not stored in model files (they are reproducible): blank when unknown.
-      c.model.settings.seconds > 0 ? fit_time(c.model.settings.seconds) : std::string());
+      c.fit_seconds > 0 ? fit_time(c.fit_seconds) : std::string());
 }
 
 // The baseline: the mean BRDF alone, once per tile.
@@ -188,9 +193,11 @@ std::string mean_brdf_rows(std::span<const ModelComparison> models) {
     tiles_with_baseline.push_back(c.tile);
     const BtfQuality& b = c.mean_brdf_only;
     h += fmt::format(
-        "<tr class=\"base\"><td>mean BRDF alone</td><td>{}</td><td>0</td><td></td><td>{}</td>"
-        "<td>{}</td><td>{:.3f}</td><td>{}</td><td></td><td></td><td></td><td></td></tr>",
-        tile_text(c.tile), rmse_text(b.rmse, c.model.format), db(b.psnr_db), b.ssim,
+        "<tr class=\"base\"><td>mean BRDF alone</td><td></td><td></td><td>{}</td><td>{}</td>"
+        "<td>{}</td><td>{}</td><td>{:.3f}</td><td>{}</td><td></td><td></td><td></td><td></td>"
+        "</tr>",
+        tile_text(c.tile), c.model->frame().lights.size() * c.model->frame().views.size() * 3,
+        rmse_text(b.rmse, c.model->frame().format), db(b.psnr_db), b.ssim,
         db(b.images[b.worst_psnr].psnr_db));
   }
   return h;
@@ -198,8 +205,9 @@ std::string mean_brdf_rows(std::span<const ModelComparison> models) {
 
 std::string models_table(std::span<const ModelComparison> models) {
   std::string h =
-      "<section><h2>Models</h2><table><tr><th>model</th><th>tile</th><th>M</th><th>iterations"
-      "</th><th>RMSE</th><th>PSNR dB</th><th>SSIM</th><th>worst image PSNR (light; view)</th>"
+      "<section><h2>Models</h2><table><tr><th>model</th><th>method</th><th>size</th><th>tile"
+      "</th><th>values stored</th><th>RMSE</th><th>PSNR dB</th><th>SSIM</th><th>worst image PSNR "
+      "(light; view)</th>"
       "<th>C.R. paper</th><th>C.R. file</th><th>file</th><th>fit time</th></tr>";
   for (const ModelComparison& c : models) h += model_row(c);
   h += mean_brdf_rows(models);
@@ -213,67 +221,77 @@ std::string models_table(std::span<const ModelComparison> models) {
 
 // ---- the curves ----------------------------------------------------------------------------
 
-// The models in the order of their number of components M (ties in the order given).
+// The models in the order of their size (ties in the order given).
 std::vector<const ModelComparison*> by_components(std::span<const ModelComparison> models) {
   std::vector<const ModelComparison*> by_m;
   for (const auto& x : models) by_m.push_back(&x);
   std::stable_sort(by_m.begin(), by_m.end(), [](auto* a, auto* b) {
-    return a->model.mixture.size() < b->model.mixture.size();
+    return a->model->size_order() < b->model->size_order();
   });
   return by_m;
 }
 
+// The Gaussian mixtures among the models, in the order of M.
+std::vector<const ModelComparison*> mixtures_by_m(std::span<const ModelComparison> models) {
+  std::vector<const ModelComparison*> out;
+  for (auto* x : by_components(models))
+    if (x->model->method() == kMixtureMethod) out.push_back(x);
+  return out;
+}
+
 Chart psnr_against_components_chart(std::span<const ModelComparison> models) {
   Chart c;
-  c.title = "PSNR against the number of components M";
+  c.title = "Gaussian mixtures: PSNR against the number of components M";
   c.x_label = "components M";
   c.x_integer = true;
   c.y_label = "PSNR (dB)";
   c.x_from_zero = true;
-  const std::vector<const ModelComparison*> by_m = by_components(models);
   ChartSeries s;
   s.label = "models compared";
   s.markers = true;
-  for (auto* x : by_m) s.points.push_back({double(x->model.mixture.size()), x->quality.psnr_db});
+  double max_m = 0;
+  for (auto* x : mixtures_by_m(models)) {
+    s.points.push_back({x->model->size_order(), x->quality.psnr_db});
+    max_m = std::max(max_m, x->model->size_order());
+  }
   ChartSeries base;
   base.label = "mean BRDF alone (M = 0)";
   base.colour = "#9ca3af";
   base.dashed = true;
-  double max_m = 0;
-  for (auto* x : by_m) max_m = std::max(max_m, double(x->model.mixture.size()));
   const double base_psnr = models[0].mean_brdf_only.psnr_db;
   base.points = {{0.0, base_psnr}, {max_m, base_psnr}};
   c.series = {s, base};
   return c;
 }
 
-// PSNR against the model's size: its file and the paper's count (paper_model_bytes).
+// PSNR against the model's size, one curve per method: its file's bytes (solid) and the bytes
+// of the paper's count (dashed: the tile's 8-bit data over the paper's ratio).
 Chart rate_distortion_chart(std::span<const ModelComparison> models) {
   Chart r;
   r.title = "PSNR against model size (rate-distortion)";
   r.x_label = "model size (KiB)";
   r.y_label = "PSNR (dB)";
   r.x_from_zero = true;
-  ChartSeries t, counted;
-  t.label = "models compared, file bytes";
-  t.markers = true;
-  t.colour = "#dc2626";
-  counted.label = "models compared, paper's count";
-  counted.markers = counted.hollow = true;
-  counted.colour = "#dc2626";
-  counted.dashed = true;
-  const std::vector<const ModelComparison*> by_m = by_components(models);
-  std::vector<const ModelComparison*> by_bytes = by_m;
-  std::stable_sort(by_bytes.begin(), by_bytes.end(),
-                   [](auto* a, auto* b) { return a->file_bytes < b->file_bytes; });
-  for (auto* x : by_bytes)
-    if (x->file_bytes > 0) t.points.push_back({double(x->file_bytes) / 1024.0, x->quality.psnr_db});
-  for (auto* x : by_m)
-    counted.points.push_back(
-        {paper_model_bytes(x->model.lights.size(), x->model.views.size(), x->model.mixture.size()) /
-             1024.0,
-         x->quality.psnr_db});
-  r.series = {t, counted};
+  std::vector<std::string> methods;
+  for (const auto& x : models)
+    if (std::find(methods.begin(), methods.end(), x.model->method()) == methods.end())
+      methods.emplace_back(x.model->method());
+  for (std::size_t k = 0; k < methods.size(); ++k) {
+    ChartSeries t, counted;
+    t.label = methods[k] + ", file bytes";
+    counted.label = methods[k] + ", paper's count";
+    t.markers = counted.markers = counted.hollow = counted.dashed = true;
+    t.colour = counted.colour = svg::kPalette[k % svg::kPaletteSize];
+    for (auto* x : by_components(models)) {
+      if (x->model->method() != methods[k]) continue;
+      const double counted_bytes = x->model->frame().data_values() / x->model->paper_ratio();
+      counted.points.push_back({counted_bytes / 1024.0, x->quality.psnr_db});
+      if (x->file_bytes > 0)
+        t.points.push_back({double(x->file_bytes) / 1024.0, x->quality.psnr_db});
+    }
+    if (!t.points.empty()) r.series.push_back(t);
+    r.series.push_back(counted);
+  }
   return r;
 }
 
@@ -315,7 +333,7 @@ std::array<double, 2> psnr_map_scale(std::span<const ModelComparison> models) {
 // times, with the pair's RMSE, PSNR and SSIM.
 std::string pictured_pair(const fs::path& folder, std::size_t k, const ModelComparison& c,
                           const PicturedPair& p, int f) {
-  const BtfModel& m = c.model;
+  const ModelFrame& m = c.model->frame();
   const BtfQuality& q = c.quality;
   const int w = m.width, hgt = m.height;
   const std::string stem = fmt::format("m{}_l{}_v{}", k + 1, p.light, p.view);
@@ -346,7 +364,7 @@ std::string pictured_pair(const fs::path& folder, std::size_t k, const ModelComp
 std::string psnr_map(const fs::path& folder, std::size_t k, const ModelComparison& c, int cell,
                      const std::vector<std::pair<std::size_t, std::size_t>>& outline,
                      std::array<double, 2> map_range) {
-  const BtfModel& m = c.model;
+  const ModelFrame& m = c.model->frame();
   const auto [lo, hi] = map_range;
   const std::string map_png = fmt::format("m{}_psnr_map.png", k + 1);
   save_png(folder, map_png, upscale_nearest(psnr_map_image(c.quality, lo, hi), cell));
@@ -362,7 +380,7 @@ std::string psnr_map(const fs::path& folder, std::size_t k, const ModelCompariso
 // The mean BRDF of the tile as the paper's Fig. 2.
 std::string mean_brdf_picture(const fs::path& folder, std::size_t k, const ModelComparison& c,
                               int cell, bool hdr) {
-  const BtfModel& m = c.model;
+  const ModelFrame& m = c.model->frame();
   const std::string brdf_png = fmt::format("m{}_mean_brdf.png", k + 1);
   save_png(folder, brdf_png,
            upscale_nearest(mean_brdf_image(c.mean_brdf, m.lights.size(), m.views.size(), m.format),
@@ -381,7 +399,7 @@ std::string mean_brdf_picture(const fs::path& folder, std::size_t k, const Model
 std::string model_section(const fs::path& folder, std::span<const ModelComparison> models,
                           std::size_t k, std::array<double, 2> map_range) {
   const ModelComparison& c = models[k];
-  const BtfModel& m = c.model;
+  const ModelFrame& m = c.model->frame();
   const int f = upscale_for(std::max(m.width, m.height), 128);
   std::string h = fmt::format(
       "<section><h2>{}: original | model | 10 &times; |difference|</h2>"
@@ -398,7 +416,8 @@ std::string model_section(const fs::path& folder, std::span<const ModelCompariso
                    std::max(300, 46 + int(m.views.size()) * cell + 8 + 48 + 8));
   h += psnr_map(folder, k, c, cell, outline, map_range);
   if (k == 0 || !same_tile(c.tile, models[0].tile))
-    h += mean_brdf_picture(folder, k, c, cell, models[0].model.format == SampleFormat::kHdr);
+    h += mean_brdf_picture(folder, k, c, cell,
+                           models[0].model->frame().format == SampleFormat::kHdr);
   h += "</div></div></section>\n";
   return h;
 }
@@ -406,7 +425,7 @@ std::string model_section(const fs::path& folder, std::span<const ModelCompariso
 // ---- how the numbers are measured ------------------------------------------------------------
 
 std::string measurement_notes(const ModelComparison& first) {
-  const BtfModel& m0 = first.model;
+  const ModelFrame& m0 = first.model->frame();
   const bool hdr = m0.format == SampleFormat::kHdr;
   const int window = first.quality.ssim_window;
   std::string h = "<section class=\"notes\"><h2>How these numbers are measured</h2><ul>";

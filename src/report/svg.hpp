@@ -2,9 +2,15 @@
 // ticks.
 #pragma once
 
+#include <cstddef>
 #include <string>
 
 namespace btfgmm::svg {
+
+// The colours of a chart's series, in order.
+inline constexpr const char* kPalette[] = {"#2563eb", "#dc2626", "#16a34a", "#9333ea",
+                                           "#ea580c", "#0891b2", "#be185d", "#4d7c0f"};
+inline constexpr std::size_t kPaletteSize = sizeof(kPalette) / sizeof(kPalette[0]);
 
 // `s` with &, <, > and " escaped for HTML text and attributes.
 std::string escape(const std::string& s);

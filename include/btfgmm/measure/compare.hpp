@@ -3,11 +3,13 @@
 #pragma once
 
 #include <cstdint>
+#include <memory>
 #include <string>
 #include <vector>
 
 #include "btfgmm/core/btf.hpp"
 #include "btfgmm/measure/metrics.hpp"
+#include "btfgmm/methods/representation.hpp"
 #include "btfgmm/model/model.hpp"
 
 namespace btfgmm {
@@ -21,11 +23,13 @@ struct PicturedPair {
 };
 
 struct ModelComparison {
-  std::string name;  // how the report names the model (its file)
-  BtfModel model;
-  std::uint64_t file_bytes = 0;  // the size of the model file (0: not written)
-  Tile tile;                     // the tile of the source the model was fitted to
-  BtfQuality quality;            // the model against the original tile
+  std::string name;                             // how the report names the model (its file)
+  std::shared_ptr<const Representation> model;  // any method
+  std::uint64_t file_bytes = 0;                 // the size of the model file (0: not written)
+  double fit_seconds = 0.0;                     // the fit's time, where known (0: not known)
+  double decode_seconds = 0.0;                  // decoding every image of the tile
+  Tile tile;                                    // the tile of the source the model was fitted to
+  BtfQuality quality;                           // the model against the original tile
   BtfQuality mean_brdf_only;     // the mean BRDF alone (every pixel its image's mean)
   std::vector<float> mean_brdf;  // of the original tile, ni * nv * 3 (Fig. 2)
   std::vector<PicturedPair> pairs;
@@ -40,6 +44,10 @@ struct CompareOptions {
 // tile it was fitted to) and keeps the images of the pairs to picture: frontal light and view,
 // a grazing light, a grazing view, then the worst by PSNR. Throws Error(kArgument) naming
 // `name` if the original's direction sets or size differ from the model's.
+ModelComparison compare_model(const Btf& original, std::shared_ptr<const Representation> model,
+                              const std::string& name, std::uint64_t file_bytes,
+                              const CompareOptions& options = {});
+// The same for a Gaussian mixture.
 ModelComparison compare_model(const Btf& original, const BtfModel& model, const std::string& name,
                               std::uint64_t file_bytes, const CompareOptions& options = {});
 

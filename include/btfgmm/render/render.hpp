@@ -38,6 +38,7 @@
 #include "btfgmm/render/mesh.hpp"
 #include "btfgmm/render/model_evaluator.hpp"
 #include "btfgmm/render/rasterize.hpp"
+#include "btfgmm/render/representation_evaluator.hpp"
 
 namespace btfgmm {
 
@@ -58,6 +59,8 @@ Rendering compose(const SurfaceBuffer& surface, std::span<const float> point_rgb
                   const RenderSettings& settings, SampleFormat format);
 
 Rendering render(const SurfaceBuffer& surface, const ModelEvaluator& model,
+                 const RenderSettings& settings, SampleFormat format);
+Rendering render(const SurfaceBuffer& surface, const RepresentationEvaluator& model,
                  const RenderSettings& settings, SampleFormat format);
 Rendering render(const SurfaceBuffer& surface, const DataEvaluator& data,
                  const RenderSettings& settings, SampleFormat format);
