@@ -9,6 +9,7 @@
 #include "btfgmm/core/error.hpp"
 #include "btfgmm/io/files.hpp"
 #include "btfgmm/methods/gaussian_mixture.hpp"
+#include "btfgmm/methods/ptm_rf.hpp"
 #include "btfgmm/model/model_file.hpp"
 
 namespace btfgmm {
@@ -32,12 +33,20 @@ std::vector<MethodSettings> mixture_ladder(const ModelFrame&) {
   return out;
 }
 
+// PTM RF has one size.
+std::vector<MethodSettings> ptm_rf_ladder(const ModelFrame&) {
+  return {MethodSettings{}};
+}
+
 const std::vector<MethodInfo>& table() {
   static const std::vector<MethodInfo> methods = {
       {"gm", "Gaussian mixture of product components over (x, y, light, view, RGB)",
        "Haindl, Havlicek, Vacha et al. (the paper btfgmm started from)",
        "--components M (600), --iterations (40)", fit_gaussian_mixture, read_gaussian_mixture,
        mixture_ladder},
+      {"ptm-rf", "PTM RF: a polynomial texture map (biquadratic in the light) per view",
+       "Malzbender, Gelb, Wolters 2001", "none (6 coefficients per texel, view and channel)",
+       fit_ptm_rf, read_ptm_rf, ptm_rf_ladder},
   };
   return methods;
 }
