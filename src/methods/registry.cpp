@@ -9,6 +9,8 @@
 #include "btfgmm/core/error.hpp"
 #include "btfgmm/io/files.hpp"
 #include "btfgmm/methods/gaussian_mixture.hpp"
+#include "btfgmm/methods/plm_rf.hpp"
+#include "btfgmm/methods/ptm_rf.hpp"
 #include "btfgmm/model/model_file.hpp"
 
 namespace btfgmm {
@@ -32,11 +34,33 @@ std::vector<MethodSettings> mixture_ladder(const ModelFrame&) {
   return out;
 }
 
+// PTM RF has one size.
+std::vector<MethodSettings> ptm_rf_ladder(const ModelFrame&) {
+  return {MethodSettings{}};
+}
+
+// PLM RF's size hardly moves with the polynomial's degree (the lobes dominate): l = 1, 2, 4.
+std::vector<MethodSettings> plm_rf_ladder(const ModelFrame&) {
+  std::vector<MethodSettings> out;
+  for (std::size_t l : {1, 2, 4}) {
+    MethodSettings s;
+    s.degree = l;
+    out.push_back(s);
+  }
+  return out;
+}
+
 const std::vector<MethodInfo>& table() {
   static const std::vector<MethodInfo> methods = {
       {"gm", "Gaussian mixture of product components over (x, y, light, view, RGB)",
        "the paper btfgmm started from, Eq. (1)-(11)", "--components M (600), --iterations (40)",
        fit_gaussian_mixture, read_gaussian_mixture, mixture_ladder},
+      {"ptm-rf", "PTM RF: a polynomial texture map (biquadratic in the light) per view",
+       "Malzbender, Gelb, Wolters 2001", "none (6 coefficients per texel, view and channel)",
+       fit_ptm_rf, read_ptm_rf, ptm_rf_ladder},
+      {"plm-rf", "PLM RF: a Lafortune lobe per texel and view, a polynomial per image",
+       "Filip, Haindl 2004", "--degree l (4) of the per-image polynomial, --iterations (30)",
+       fit_plm_rf, read_plm_rf, plm_rf_ladder},
   };
   return methods;
 }
