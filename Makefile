@@ -27,7 +27,8 @@ test: build
 
 # Speed and memory against Armadillo's gmm_diag, then the paper's full workload (64 x 64 tile,
 # M = 600, 40 iterations) and the decoding of its model, then rendering, then the kernels
-# alone (Google Benchmark). Minutes;
+# alone (Google Benchmark), then the comparison methods (PCA BTF against numpy's SVD, every
+# method's decoding). Minutes;
 # docs/BENCHMARKS.md keeps the figures.
 bench: build
 	@$(BUILD)/bench_fit --tile 12 --components 600 --iterations 5
@@ -36,6 +37,7 @@ bench: build
 	@$(BUILD)/bench_fit --decode $(BUILD)/bench-64.btfgmm
 	@$(BUILD)/bench_render --runs 5
 	@$(BUILD)/bench_kernels
+	@$(BUILD)/bench_methods
 
 # The test suite under AddressSanitizer and UndefinedBehaviorSanitizer, in build-asan (without
 # the benchmarks). ASAN_TESTS / ASAN_EXCLUDE (ctest -R / -E regular expressions) choose tests.

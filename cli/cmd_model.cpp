@@ -3,8 +3,6 @@
 
 #include <algorithm>
 #include <array>
-#include <atomic>
-#include <csignal>
 #include <cstdlib>
 #include <filesystem>
 #include <iostream>
@@ -21,6 +19,7 @@
 #include "btfgmm/model/predict.hpp"
 #include "cli_util.hpp"
 #include "commands.hpp"
+#include "stop_signals.hpp"
 #include "tile_option.hpp"
 
 namespace btfgmm::cli {
@@ -38,28 +37,6 @@ struct FitOptions {
   bool overwrite = false, quiet = false;
   std::string checkpoint, resume;
   int checkpoint_every = 1;
-};
-
-// Set by SIGINT / SIGTERM: the fit stops after the iteration under way and saves its state.
-std::atomic<bool> g_stop{false};
-extern "C" void on_stop_signal(int) {
-  g_stop.store(true);
-}
-
-// While it lives, SIGINT and SIGTERM stop the fit (g_stop) instead of ending the process.
-class StopOnSignals {
- public:
-  StopOnSignals() {
-    g_stop.store(false);
-    std::signal(SIGINT, on_stop_signal);
-    std::signal(SIGTERM, on_stop_signal);
-  }
-  ~StopOnSignals() {
-    std::signal(SIGINT, SIG_DFL);
-    std::signal(SIGTERM, SIG_DFL);
-  }
-  StopOnSignals(const StopOnSignals&) = delete;
-  StopOnSignals& operator=(const StopOnSignals&) = delete;
 };
 
 btfgmm::Precision parse_precision(const std::string& text) {

@@ -19,5 +19,6 @@ void register_data_commands(CLI::App& app, Commands& commands);     // generate,
 void register_model_commands(CLI::App& app, Commands& commands);    // fit, decode, eval
 void register_compare_commands(CLI::App& app, Commands& commands);  // compare
 void register_render_commands(CLI::App& app, Commands& commands);   // render, tile
+void register_sweep_commands(CLI::App& app, Commands& commands);    // sweep
 
 }  // namespace btfgmm::cli

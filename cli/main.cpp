@@ -18,6 +18,7 @@ int main(int argc, char** argv) {
   btfgmm::cli::register_model_commands(app, commands);
   btfgmm::cli::register_compare_commands(app, commands);
   btfgmm::cli::register_render_commands(app, commands);
+  btfgmm::cli::register_sweep_commands(app, commands);
 
   try {
     app.parse(argc, argv);

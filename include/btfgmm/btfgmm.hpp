@@ -36,9 +36,10 @@
 #include "btfgmm/methods/ptm_rf.hpp"
 #include "btfgmm/methods/registry.hpp"
 #include "btfgmm/methods/representation.hpp"
-// measure: image quality, a model against its data, seamless tiles
+// measure: image quality, a model against its data, the rate-distortion sweep, seamless tiles
 #include "btfgmm/measure/compare.hpp"
 #include "btfgmm/measure/metrics.hpp"
+#include "btfgmm/measure/sweep.hpp"
 #include "btfgmm/measure/tile.hpp"
 #include "btfgmm/measure/tile_option.hpp"
 // render: meshes, rasterising, evaluators, composing

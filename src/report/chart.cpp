@@ -9,6 +9,7 @@
 #include <set>
 
 #include "btfgmm/core/error.hpp"
+#include "btfgmm/measure/sweep.hpp"
 #include "btfgmm/model/model_file.hpp"
 #include "report/svg.hpp"
 
@@ -27,32 +28,44 @@ struct PlotArea {
   static constexpr int left = 62, right = 14, top = 30, bottom = 44;
   int pw = 0, ph = 0;  // the plot's width and height in pixels
   svg::Axis ax, ay;
-  double px(double x) const { return left + (x - ax.lo) / (ax.hi - ax.lo) * pw; }
+  double px(double x) const {
+    if (ax.log) return left + std::log10(x / ax.lo) / std::log10(ax.hi / ax.lo) * pw;
+    return left + (x - ax.lo) / (ax.hi - ax.lo) * pw;
+  }
   double py(double y) const { return top + ph - (y - ay.lo) / (ay.hi - ay.lo) * ph; }
+  // A point the axes can show: finite, and x > 0 on a log axis.
+  bool shows(const std::array<double, 2>& p) const {
+    return std::isfinite(p[0]) && std::isfinite(p[1]) && (!ax.log || p[0] > 0.0);
+  }
 };
 
-// Axes around the finite points of all series.
+// Axes around the points of all series that the axes can show.
 PlotArea plot_area(const Chart& chart) {
   PlotArea a;
   a.pw = chart.width - a.left - a.right;
   a.ph = chart.height - a.top - a.bottom;
+  a.ax.log = chart.x_log;
   double x0 = std::numeric_limits<double>::infinity(), x1 = -x0, y0 = x0, y1 = -x0;
   for (const auto& s : chart.series)
     for (const auto& p : s.points) {
-      if (!std::isfinite(p[0]) || !std::isfinite(p[1])) continue;
+      if (!a.shows(p)) continue;
       x0 = std::min(x0, p[0]);
       x1 = std::max(x1, p[0]);
       y0 = std::min(y0, p[1]);
       y1 = std::max(y1, p[1]);
     }
-  if (!std::isfinite(x0)) x0 = 0, x1 = 1, y0 = 0, y1 = 1;
+  if (!std::isfinite(x0)) x0 = chart.x_log ? 1 : 0, x1 = chart.x_log ? 10 : 1, y0 = 0, y1 = 1;
   svg::Axis& ax = a.ax;
-  ax = svg::make_axis(x0, x1, chart.x_from_zero, 5);
-  if (chart.x_integer && ax.step < 1.0) {  // no ticks between whole numbers
+  if (chart.x_log) {
+    ax = svg::make_log_axis(x0, x1);
+  } else {
+    ax = svg::make_axis(x0, x1, chart.x_from_zero, 5);
+  }
+  if (!chart.x_log && chart.x_integer && ax.step < 1.0) {  // no ticks between whole numbers
     ax.step = 1.0;
     ax.lo = std::floor(ax.lo);
     ax.hi = std::ceil(ax.hi);
-  } else if (chart.x_integer && ax.step != std::floor(ax.step)) {
+  } else if (!chart.x_log && chart.x_integer && ax.step != std::floor(ax.step)) {
     ax.step = std::ceil(ax.step);
     ax.hi = ax.lo + std::ceil((ax.hi - ax.lo) / ax.step) * ax.step;
   }
@@ -64,13 +77,13 @@ PlotArea plot_area(const Chart& chart) {
 std::string axes_svg(const Chart& chart, const PlotArea& a) {
   const int left = a.left, top = a.top, pw = a.pw, ph = a.ph;
   std::string s;
-  for (double v = a.ax.lo; v <= a.ax.hi + a.ax.step * 1e-6; v += a.ax.step) {
+  for (double v : svg::axis_ticks(a.ax)) {
     const double x = a.px(v);
     s += fmt::format(
         "<line x1=\"{0:.1f}\" x2=\"{0:.1f}\" y1=\"{1}\" y2=\"{2}\" stroke=\"#e5e7eb\"/>"
         "<text x=\"{0:.1f}\" y=\"{3}\" text-anchor=\"middle\" fill=\"#4b5563\">{4}"
         "</text>",
-        x, top, top + ph, top + ph + 14, tick_text(v, a.ax.step));
+        x, top, top + ph, top + ph + 14, svg::axis_tick_text(a.ax, v));
   }
   for (double v = a.ay.lo; v <= a.ay.hi + a.ay.step * 1e-6; v += a.ay.step) {
     const double y = a.py(v);
@@ -98,14 +111,14 @@ std::string series_svg(const Chart& chart, const PlotArea& a) {
   for (const auto& series : chart.series) {
     std::string pts;
     for (const auto& p : series.points)
-      if (std::isfinite(p[0]) && std::isfinite(p[1]))
-        pts += fmt::format("{:.1f},{:.1f} ", a.px(p[0]), a.py(p[1]));
+      if (a.shows(p)) pts += fmt::format("{:.1f},{:.1f} ", a.px(p[0]), a.py(p[1]));
     if (series.line && !pts.empty())
-      s += fmt::format("<polyline points=\"{}\" fill=\"none\" stroke=\"{}\" stroke-width=\"2\"{}/>",
-                       pts, series.colour, series.dashed ? " stroke-dasharray=\"6 4\"" : "");
+      s += fmt::format(
+          "<polyline points=\"{}\" fill=\"none\" stroke=\"{}\" stroke-width=\"{:g}\"{}/>", pts,
+          series.colour, series.width, series.dashed ? " stroke-dasharray=\"6 4\"" : "");
     if (series.markers)
       for (const auto& p : series.points)
-        if (std::isfinite(p[0]) && std::isfinite(p[1]))
+        if (a.shows(p))
           s += fmt::format(
               "<circle cx=\"{:.1f}\" cy=\"{:.1f}\" r=\"4\" fill=\"{}\" stroke=\"{}\" "
               "stroke-width=\"1.5\"/>",
@@ -126,8 +139,9 @@ std::string legend_svg(const Chart& chart) {
     if (series.line)
       s += fmt::format(
           "<line x1=\"{0}\" x2=\"{1}\" y1=\"{2}\" y2=\"{2}\" stroke=\"{3}\" "
-          "stroke-width=\"2\"{4}/>",
-          x, x + 20, y - 3, series.colour, series.dashed ? " stroke-dasharray=\"6 4\"" : "");
+          "stroke-width=\"{4:g}\"{5}/>",
+          x, x + 20, y - 3, series.colour, series.width,
+          series.dashed ? " stroke-dasharray=\"6 4\"" : "");
     if (series.markers)
       s += fmt::format(
           "<circle cx=\"{}\" cy=\"{}\" r=\"4\" fill=\"{}\" stroke=\"{}\" "
@@ -149,8 +163,8 @@ std::string svg_chart(const Chart& chart) {
   const int total_height = chart.height + 15 * rows + (rows ? 6 : 0);
   std::string s = fmt::format(
       "<svg class=\"chart\" width=\"{0}\" height=\"{1}\" viewBox=\"0 0 {0} {1}\" "
-      "font-family=\"system-ui, sans-serif\" font-size=\"11\">",
-      chart.width, total_height);
+      "font-family=\"system-ui, sans-serif\" font-size=\"11\"{2}>",
+      chart.width, total_height, chart.x_log ? " data-x-scale=\"log\"" : "");
   s += fmt::format(
       "<text x=\"{}\" y=\"16\" font-size=\"13\" font-weight=\"600\" "
       "fill=\"#111827\">{}</text>",
@@ -219,6 +233,84 @@ Chart compression_ratio_chart(std::span<const ModelComparison> models) {
     c.series.push_back(t2);
   }
   return c;
+}
+
+namespace {
+
+// The methods of the models, in the order they first appear.
+std::vector<std::string> methods_of(std::span<const ModelComparison> models) {
+  std::vector<std::string> methods;
+  for (const auto& x : models)
+    if (std::find(methods.begin(), methods.end(), x.model->method()) == methods.end())
+      methods.emplace_back(x.model->method());
+  return methods;
+}
+
+// The Pareto front as a step line: f(r) = the highest PSNR at a ratio of r or more, from the
+// front's lowest ratio to its highest (each step drops at the ratio of a model on the front).
+ChartSeries pareto_steps(std::span<const ModelComparison> models) {
+  const std::vector<bool> front = pareto_front(models);
+  std::vector<std::array<double, 2>> points;
+  for (std::size_t i = 0; i < models.size(); ++i)
+    if (front[i])
+      points.push_back(
+          {models[i].model->file_ratio(models[i].file_bytes), models[i].quality.psnr_db});
+  std::sort(points.begin(), points.end(), [](const auto& a, const auto& b) {
+    return a[0] < b[0] || (a[0] == b[0] && a[1] > b[1]);
+  });
+  ChartSeries s;
+  s.label = "Pareto front: the highest PSNR at this ratio or more";
+  s.colour = "#d1d5db";
+  s.width = 7.0;
+  for (std::size_t k = 0; k < points.size(); ++k) {
+    if (k > 0) s.points.push_back({points[k - 1][0], points[k][1]});
+    s.points.push_back(points[k]);
+  }
+  return s;
+}
+
+}  // namespace
+
+Chart rate_distortion_chart(std::span<const ModelComparison> models) {
+  Chart r;
+  r.title = "PSNR against compression ratio (rate-distortion)";
+  r.x_label = "compression ratio 1:x of the model file (log scale)";
+  r.y_label = "PSNR (dB)";
+  r.x_log = true;
+  r.width = 560;
+  r.height = 340;
+  const bool any_file = std::any_of(models.begin(), models.end(),
+                                    [](const ModelComparison& x) { return x.file_bytes > 0; });
+  if (any_file) r.series.push_back(pareto_steps(models));
+  const std::vector<std::string> methods = methods_of(models);
+  for (std::size_t k = 0; k < methods.size(); ++k) {
+    ChartSeries file, counted;
+    file.label = methods[k];
+    file.markers = counted.markers = counted.hollow = true;
+    counted.line = false;
+    file.colour = counted.colour = svg::kPalette[k % svg::kPaletteSize];
+    std::vector<const ModelComparison*> own;
+    for (const auto& x : models)
+      if (x.model->method() == methods[k]) own.push_back(&x);
+    for (const ModelComparison* x : own)
+      counted.points.push_back({x->model->paper_ratio(), x->quality.psnr_db});
+    std::stable_sort(own.begin(), own.end(), [](auto* a, auto* b) {
+      return a->model->file_ratio(a->file_bytes) < b->model->file_ratio(b->file_bytes);
+    });
+    for (const ModelComparison* x : own)
+      if (x->file_bytes > 0)
+        file.points.push_back({x->model->file_ratio(x->file_bytes), x->quality.psnr_db});
+    if (!file.points.empty()) r.series.push_back(file);
+    if (file.points.empty()) counted.label = methods[k] + ", paper's count";
+    r.series.push_back(counted);
+  }
+  ChartSeries hollow;  // the legend's entry for every method's hollow markers
+  hollow.label = "hollow: the same models by the paper's count (Table 2)";
+  hollow.colour = "#6b7280";
+  hollow.line = false;
+  hollow.markers = hollow.hollow = true;
+  r.series.push_back(hollow);
+  return r;
 }
 
 }  // namespace btfgmm

@@ -12,8 +12,10 @@
 #include "btfgmm/core/error.hpp"
 #include "btfgmm/core/text.hpp"
 #include "btfgmm/io/files.hpp"
+#include "btfgmm/measure/sweep.hpp"
 #include "btfgmm/model/model_file.hpp"
 #include "report/grid.hpp"
+#include "report/sections.hpp"
 #include "report/svg.hpp"
 
 namespace btfgmm {
@@ -26,39 +28,15 @@ using svg::colour_bar;
 using svg::escape;
 using svg::grid_svg;
 
-// ---- numbers as the report writes them -------------------------------------------------------
-
-std::string angles(const Direction& d) {
-  return fmt::format("&theta; {:g}&deg; &phi; {:g}&deg;", d.theta_deg, d.phi_deg);
-}
-
-std::string db(double v) {
-  return std::isfinite(v) ? fmt::format("{:.2f}", v) : std::string("&infin;");
-}
-
-// RMSE for people: levels with 2 decimals; HDR data (any scale) with 4 significant digits.
-std::string rmse_text(double v, SampleFormat f) {
-  return f == SampleFormat::kHdr ? fmt::format("{:.4g}", v) : fmt::format("{:.2f}", v);
-}
-
-std::string ratio(double r) {
-  return r >= 100 ? fmt::format("1:{:.0f}", r) : fmt::format("1:{:.1f}", r);
-}
-
-// A fit time with its unit: "12.3 s", "m:ss min", "h:mm:ss h".
-std::string fit_time(double s) {
-  const std::string t = human_seconds(s);
-  if (s < 60) return t;
-  return t + (std::lround(s) < 3600 ? " min" : " h");
-}
-
-std::string tile_text(const Tile& t) {
-  return fmt::format("{}&times;{} at ({}, {})", t.width, t.height, t.x, t.y);
-}
-
-bool same_tile(const Tile& a, const Tile& b) {
-  return a.x == b.x && a.y == b.y && a.width == b.width && a.height == b.height;
-}
+using report::angles;
+using report::db;
+using report::ratio;
+using report::rmse_text;
+using report::same_tile;
+using report::save_png;
+using report::tile_text;
+using report::time_text;
+using report::upscale_for;
 
 // ---- files ---------------------------------------------------------------------------------
 
@@ -69,14 +47,6 @@ void create_report_folder(const fs::path& folder) {
     throw Error(Error::Kind::kIo, fmt::format("report: cannot create the folder '{}': {}; check "
                                               "the path and its permissions",
                                               folder.string(), ec.message()));
-}
-
-void save_png(const fs::path& folder, const std::string& name, const Image& image) {
-  write_png(folder / name, image.width, image.height, image.rgb);
-}
-
-int upscale_for(int largest, int target) {
-  return std::max(1, (target + largest - 1) / largest);
 }
 
 // ---- the page's head: title, style, what was compared -------------------------------------
@@ -109,18 +79,20 @@ code{font-size:12px;background:#f3f4f6;padding:0 3px;border-radius:3px}
 </style></head><body><main>
 )";
 
-std::string page_head(const std::string& btf_name, std::span<const ModelComparison> models) {
+std::string page_head(const std::string& btf_name, std::span<const ModelComparison> models,
+                      const ReportOptions& o) {
   const ModelFrame& m0 = models[0].model->frame();
   std::string h;
   h += "<!doctype html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">";
-  h += fmt::format("<title>btfgmm compare: {}</title>", escape(btf_name));
+  h += fmt::format("<title>btfgmm {}: {}</title>", escape(o.command), escape(btf_name));
   h += kStyle;
-  h += fmt::format("<h1>btfgmm compare: <code>{}</code></h1>", escape(btf_name));
+  h += fmt::format("<h1>btfgmm {}: <code>{}</code></h1>", escape(o.command), escape(btf_name));
   h += fmt::format(
       "<p class=\"sub\">{} light &times; {} view directions ({} images) &middot; {} data &middot; "
-      "{} model{} compared &middot; tile {}</p>",
+      "{} model{} compared &middot; tile {}{}</p>",
       m0.lights.size(), m0.views.size(), m0.lights.size() * m0.views.size(), to_string(m0.format),
-      models.size(), models.size() == 1 ? "" : "s", tile_text(models[0].tile));
+      models.size(), models.size() == 1 ? "" : "s", tile_text(models[0].tile),
+      o.note.empty() ? "" : "<br>" + escape(o.note));
   return h;
 }
 
@@ -165,21 +137,23 @@ std::string cards(const ModelComparison& c) {
 
 // ---- the table of models ---------------------------------------------------------------------
 
-std::string model_row(const ModelComparison& c) {
+// A model's row; `pareto`: it is on the Pareto front of PSNR against its file's ratio.
+std::string model_row(const ModelComparison& c, bool pareto) {
   const BtfQuality& q = c.quality;
   const std::size_t w = q.worst_psnr;
   const ModelFrame& f = c.model->frame();
   return fmt::format(
       "<tr><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td>"
       "<td>{}</td><td>{}</td><td>{:.3f}</td><td>{} ({}; {})</td><td>{}</td><td>{}</td>"
-      "<td>{}</td><td>{}</td></tr>",
+      "<td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>",
       escape(c.name), escape(std::string(c.model->method())), escape(c.model->size_text()),
       tile_text(c.tile), c.model->parameter_count(), rmse_text(q.rmse, f.format), db(q.psnr_db),
       q.ssim, db(q.images[w].psnr_db), angles(f.lights[w / q.views]), angles(f.views[w % q.views]),
       ratio(c.model->paper_ratio()), c.file_bytes ? ratio(c.model->file_ratio(c.file_bytes)) : "",
       c.file_bytes ? human_bytes(double(c.file_bytes)) : "",
       // Not stored in model files (they are reproducible): blank when unknown.
-      c.fit_seconds > 0 ? fit_time(c.fit_seconds) : std::string());
+      c.fit_seconds > 0 ? time_text(c.fit_seconds) : std::string(),
+      c.decode_seconds > 0 ? time_text(c.decode_seconds) : std::string(), pareto ? "&#9733;" : "");
 }
 
 // The baseline: the mean BRDF alone, once per tile.
@@ -195,7 +169,7 @@ std::string mean_brdf_rows(std::span<const ModelComparison> models) {
     h += fmt::format(
         "<tr class=\"base\"><td>mean BRDF alone</td><td></td><td></td><td>{}</td><td>{}</td>"
         "<td>{}</td><td>{}</td><td>{:.3f}</td><td>{}</td><td></td><td></td><td></td><td></td>"
-        "</tr>",
+        "<td></td><td></td></tr>",
         tile_text(c.tile), c.model->frame().lights.size() * c.model->frame().views.size() * 3,
         rmse_text(b.rmse, c.model->frame().format), db(b.psnr_db), b.ssim,
         db(b.images[b.worst_psnr].psnr_db));
@@ -203,110 +177,37 @@ std::string mean_brdf_rows(std::span<const ModelComparison> models) {
   return h;
 }
 
-std::string models_table(std::span<const ModelComparison> models) {
+// The settings a sweep could not fit, and why.
+std::string skipped_list(std::span<const SkippedSetting> skipped) {
+  if (skipped.empty()) return "";
+  std::string h =
+      "<p class=\"note\">Not fitted (the method refused the setting for this "
+      "tile):</p><ul class=\"note\">";
+  for (const SkippedSetting& s : skipped)
+    h += fmt::format("<li><b>{}</b> {}: {}</li>", escape(s.method), escape(s.settings),
+                     escape(s.message));
+  return h + "</ul>";
+}
+
+std::string models_table(std::span<const ModelComparison> models, const ReportOptions& o) {
   std::string h =
       "<section><h2>Models</h2><table><tr><th>model</th><th>method</th><th>size</th><th>tile"
       "</th><th>values stored</th><th>RMSE</th><th>PSNR dB</th><th>SSIM</th><th>worst image PSNR "
       "(light; view)</th>"
-      "<th>C.R. paper</th><th>C.R. file</th><th>file</th><th>fit time</th></tr>";
-  for (const ModelComparison& c : models) h += model_row(c);
+      "<th>C.R. paper</th><th>C.R. file</th><th>file</th><th>fit time</th><th>decode</th>"
+      "<th>Pareto</th></tr>";
+  const std::vector<bool> front = pareto_front(models);
+  for (std::size_t k = 0; k < models.size(); ++k) h += model_row(models[k], front[k]);
   h += mean_brdf_rows(models);
   h += "</table><p class=\"note\">The paper (Fig. 3, M = 600, 81 &times; 81 directions): "
        "corduroy 36&times;46 1:518, RMSE 15 / PSNR 24.8 dB / SSIM 0.81; knitted wool 25&times;25 "
        "1:196, 12 / 26.5 / 0.85; aluminium profile 21&times;26 1:171, 7.3 / 30.9 / 0.90. "
        "&ldquo;Mean BRDF alone&rdquo;: every pixel its image's mean colour, the model without "
-       "its mixture.</p></section>\n";
+       "its mixture. &#9733;: on the Pareto front (no model has a higher PSNR at the same or a "
+       "higher compression ratio of its file). Decode: every image of the tile.</p>";
+  h += skipped_list(o.skipped);
+  h += "</section>\n";
   return h;
-}
-
-// ---- the curves ----------------------------------------------------------------------------
-
-// The models in the order of their size (ties in the order given).
-std::vector<const ModelComparison*> by_components(std::span<const ModelComparison> models) {
-  std::vector<const ModelComparison*> by_m;
-  for (const auto& x : models) by_m.push_back(&x);
-  std::stable_sort(by_m.begin(), by_m.end(), [](auto* a, auto* b) {
-    return a->model->size_order() < b->model->size_order();
-  });
-  return by_m;
-}
-
-// The Gaussian mixtures among the models, in the order of M.
-std::vector<const ModelComparison*> mixtures_by_m(std::span<const ModelComparison> models) {
-  std::vector<const ModelComparison*> out;
-  for (auto* x : by_components(models))
-    if (x->model->method() == kMixtureMethod) out.push_back(x);
-  return out;
-}
-
-Chart psnr_against_components_chart(std::span<const ModelComparison> models) {
-  Chart c;
-  c.title = "Gaussian mixtures: PSNR against the number of components M";
-  c.x_label = "components M";
-  c.x_integer = true;
-  c.y_label = "PSNR (dB)";
-  c.x_from_zero = true;
-  ChartSeries s;
-  s.label = "models compared";
-  s.markers = true;
-  double max_m = 0;
-  for (auto* x : mixtures_by_m(models)) {
-    s.points.push_back({x->model->size_order(), x->quality.psnr_db});
-    max_m = std::max(max_m, x->model->size_order());
-  }
-  ChartSeries base;
-  base.label = "mean BRDF alone (M = 0)";
-  base.colour = "#9ca3af";
-  base.dashed = true;
-  const double base_psnr = models[0].mean_brdf_only.psnr_db;
-  base.points = {{0.0, base_psnr}, {max_m, base_psnr}};
-  c.series = {s, base};
-  return c;
-}
-
-// PSNR against the model's size, one curve per method: its file's bytes (solid) and the bytes
-// of the paper's count (dashed: the tile's 8-bit data over the paper's ratio).
-Chart rate_distortion_chart(std::span<const ModelComparison> models) {
-  Chart r;
-  r.title = "PSNR against model size (rate-distortion)";
-  r.x_label = "model size (KiB)";
-  r.y_label = "PSNR (dB)";
-  r.x_from_zero = true;
-  std::vector<std::string> methods;
-  for (const auto& x : models)
-    if (std::find(methods.begin(), methods.end(), x.model->method()) == methods.end())
-      methods.emplace_back(x.model->method());
-  for (std::size_t k = 0; k < methods.size(); ++k) {
-    ChartSeries t, counted;
-    t.label = methods[k] + ", file bytes";
-    counted.label = methods[k] + ", paper's count";
-    t.markers = counted.markers = counted.hollow = counted.dashed = true;
-    t.colour = counted.colour = svg::kPalette[k % svg::kPaletteSize];
-    for (auto* x : by_components(models)) {
-      if (x->model->method() != methods[k]) continue;
-      const double counted_bytes = x->model->frame().data_values() / x->model->paper_ratio();
-      counted.points.push_back({counted_bytes / 1024.0, x->quality.psnr_db});
-      if (x->file_bytes > 0)
-        t.points.push_back({double(x->file_bytes) / 1024.0, x->quality.psnr_db});
-    }
-    if (!t.points.empty()) r.series.push_back(t);
-    r.series.push_back(counted);
-  }
-  return r;
-}
-
-std::string curves_section(std::span<const ModelComparison> models) {
-  std::string curves = "<section><h2>Curves</h2><div class=\"curves\">";
-  curves += svg_chart(compression_ratio_chart(models));
-  curves += svg_chart(psnr_against_components_chart(models));
-  curves += svg_chart(rate_distortion_chart(models));
-  curves += "</div>";
-  if (models.size() == 1)
-    curves +=
-        "<p class=\"note\">One model: compare several models of this BTF (e.g. fitted with "
-        "different M) in one command to trace the rate-distortion curves.</p>";
-  curves += "</section>\n";
-  return curves;
 }
 
 // ---- one section per model: pictures, PSNR map, mean BRDF ----------------------------------
@@ -445,10 +346,11 @@ std::string measurement_notes(const ModelComparison& first) {
                                 "{}&times;{}, the same Gaussian cut at its edge)",
                                 window, window)
                   : std::string());
-  h += "<li><b>Compression ratio</b>, the paper's count: W&middot;H&middot;ni&middot;nv&middot;3 "
-       "bytes of 8-bit data against M&middot;9&middot;2 four-byte floats plus the mean BRDF as "
-       "ni&middot;nv&middot;3 bytes; by the file: the same data against the bytes of the model "
-       "file.</li>";
+  h += "<li><b>Compression ratio</b>, the paper's count (Table 2): for the Gaussian mixture "
+       "W&middot;H&middot;ni&middot;nv&middot;3 bytes of 8-bit data against M&middot;9&middot;2 "
+       "four-byte floats plus the mean BRDF as ni&middot;nv&middot;3 bytes; for the other "
+       "methods the data's values against the values stored, one for one. By the file: the "
+       "same data, a byte a value, against the bytes of the model file.</li>";
   h += "<li><b>Pictures</b>: the tile enlarged without smoothing; differences are "
        "10&nbsp;&times;&nbsp;|original&nbsp;&minus;&nbsp;model|, as in the paper's Fig. 3.</li>";
   h += "</ul></section>\n</main></body></html>\n";
@@ -458,18 +360,18 @@ std::string measurement_notes(const ModelComparison& first) {
 }  // namespace
 
 void write_report(const fs::path& folder, const std::string& btf_name,
-                  std::span<const ModelComparison> models) {
+                  std::span<const ModelComparison> models, const ReportOptions& options) {
   if (models.empty())
     throw Error(Error::Kind::kArgument, "report: give at least one model to compare");
   create_report_folder(folder);
   // One model: its cards first and its curves last; a sweep of models: the curves right after
   // the table.
   const bool one = models.size() == 1;
-  std::string h = page_head(btf_name, models);
+  std::string h = page_head(btf_name, models, options);
   if (one) h += cards(models[0]);
-  h += models_table(models);
-  const std::string curves = curves_section(models);
-  if (!one) h += curves;
+  h += models_table(models, options);
+  const std::string curves = report::curves_section(models);
+  if (!one) h += curves + report::methods_figure(folder, models);
   const std::array<double, 2> map_range = psnr_map_scale(models);
   for (std::size_t k = 0; k < models.size(); ++k) h += model_section(folder, models, k, map_range);
   if (one) h += curves;

@@ -67,4 +67,48 @@ Axis make_axis(double lo, double hi, bool from_zero, int ticks) {
   return a;
 }
 
+Axis make_log_axis(double lo, double hi) {
+  Axis a;
+  a.log = true;
+  if (!(lo > 0.0) || !std::isfinite(lo)) lo = 1.0;
+  if (!(hi >= lo) || !std::isfinite(hi)) hi = lo;
+  // A rounding margin, so that 100 computed as 99.99999 still sits on its decade.
+  const double d0 = std::floor(std::log10(lo) + 1e-9), d1 = std::ceil(std::log10(hi) - 1e-9);
+  a.lo = std::pow(10.0, d0);
+  a.hi = std::pow(10.0, std::max(d1, d0 + 1.0));
+  if (d1 - d0 <= 2.0) {  // a short range: from and to 1, 2 or 5 times a power of ten
+    for (double m : {2.0, 5.0})
+      if (m * std::pow(10.0, d0) <= lo * (1.0 + 1e-9)) a.lo = m * std::pow(10.0, d0);
+    for (double m : {5.0, 2.0, 1.0})
+      if (m * std::pow(10.0, d1 - 1.0) >= hi * (1.0 - 1e-9) && m * std::pow(10.0, d1 - 1.0) > a.lo)
+        a.hi = m * std::pow(10.0, d1 - 1.0);
+  }
+  return a;
+}
+
+std::vector<double> axis_ticks(const Axis& a) {
+  std::vector<double> ticks;
+  if (!a.log) {
+    for (double v = a.lo; v <= a.hi + a.step * 1e-6; v += a.step) ticks.push_back(v);
+    return ticks;
+  }
+  const int d0 = int(std::floor(std::log10(a.lo) + 1e-9)),
+            d1 = int(std::ceil(std::log10(a.hi) - 1e-9));
+  if (d1 - d0 > 2) {  // decades only, at most about 8 of them labelled
+    const int every = std::max(1, (d1 - d0 + 7) / 8);
+    for (int d = d0; d <= d1; d += every) ticks.push_back(std::pow(10.0, d));
+    return ticks;
+  }
+  for (int d = d0; d <= d1; ++d)
+    for (double m : {1.0, 2.0, 5.0}) {
+      const double v = m * std::pow(10.0, d);
+      if (v >= a.lo * (1.0 - 1e-9) && v <= a.hi * (1.0 + 1e-9)) ticks.push_back(v);
+    }
+  return ticks;
+}
+
+std::string axis_tick_text(const Axis& a, double v) {
+  return a.log ? fmt::format("{:g}", v) : tick_text(v, a.step);
+}
+
 }  // namespace btfgmm::svg

@@ -4,6 +4,7 @@
 
 #include <cstddef>
 #include <string>
+#include <vector>
 
 namespace btfgmm::svg {
 
@@ -22,9 +23,19 @@ std::string tick_text(double v, double step);
 
 struct Axis {
   double lo = 0, hi = 1, step = 1;
+  bool log = false;  // logarithmic: lo and hi are powers of ten, `step` is unused
 };
 
 // An axis over [lo, hi] (and 0 if `from_zero`) with a little room and about `ticks` nice ticks.
 Axis make_axis(double lo, double hi, bool from_zero, int ticks);
+// A logarithmic axis over [lo, hi] (both > 0): from the power of ten at or below lo to the one
+// at or above hi (at least one decade); over at most two decades, from and to the nearest 1,
+// 2 or 5 times a power of ten instead (7 to 22: 5 to 50).
+Axis make_log_axis(double lo, double hi);
+// The axis's tick values, from lo to hi: every step; on a log axis every decade (every second
+// or more over more than 8 decades), and over at most two decades 1, 2 and 5 times each.
+std::vector<double> axis_ticks(const Axis& a);
+// A tick's label: tick_text on a linear axis; on a log axis "0.01", "5", "1000", "1e+06".
+std::string axis_tick_text(const Axis& a, double v);
 
 }  // namespace btfgmm::svg

@@ -11,17 +11,29 @@
 #include <filesystem>
 #include <span>
 #include <string>
+#include <vector>
 
 #include "btfgmm/measure/compare.hpp"
+#include "btfgmm/measure/sweep.hpp"
 #include "btfgmm/report/chart.hpp"
 #include "btfgmm/report/pictures.hpp"
 
 namespace btfgmm {
 
+// What a report says besides its models.
+struct ReportOptions {
+  std::string command = "compare";      // the page's title: "btfgmm <command>: <BTF>"
+  std::vector<SkippedSetting> skipped;  // a sweep's settings that were not fitted, listed
+  std::string note;                     // a line under the title (e.g. how a sweep was run)
+};
+
 // Writes `folder`/index.html and its PNG pictures next to it (the folder is created if
-// needed; files of the same names are replaced). `btf_name` names the BTF in the title.
-// Throws Error(kArgument) for no models, Error(kIo) if a file cannot be written.
+// needed; files of the same names are replaced). `btf_name` names the BTF in the title. The
+// page: the models' table (with the Pareto front of PSNR against the file's compression
+// ratio marked), the curves (rate-distortion per method), one image decoded by each method
+// beside the original, then a section per model. Throws Error(kArgument) for no models,
+// Error(kIo) if a file cannot be written.
 void write_report(const std::filesystem::path& folder, const std::string& btf_name,
-                  std::span<const ModelComparison> models);
+                  std::span<const ModelComparison> models, const ReportOptions& options = {});
 
 }  // namespace btfgmm

@@ -1,0 +1,324 @@
+// btfgmm sweep: every method fitted to one tile at each size of its ladder, measured against
+// the tile; a table, sweep.json and an HTML report of the rate-distortion curves.
+#include <fmt/format.h>
+
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <iostream>
+#include <memory>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "btfgmm/btfgmm.hpp"
+#include "btfgmm/core/text.hpp"
+#include "btfgmm/io/files.hpp"
+#include "btfgmm/measure/sweep.hpp"
+#include "btfgmm/report/report.hpp"
+#include "cli_util.hpp"
+#include "commands.hpp"
+#include "stop_signals.hpp"
+#include "tile_option.hpp"
+
+namespace btfgmm::cli {
+namespace {
+
+namespace fs = std::filesystem;
+
+struct SweepOptions {
+  std::string btf, tile, out, methods, precision = "f16";
+  std::vector<std::size_t> components;  // sizes instead of the ladders
+  int iterations = 0, threads = 0;
+  std::uint64_t seed = 1;
+  bool keep_models = false, overwrite = false, quiet = false, json = false;
+  bool methods_given = false;  // --methods was given (perhaps empty)
+};
+
+// --methods "gm,pca-btf": every name known (the nearest suggested), none twice; empty: all.
+std::vector<std::string> method_names(const SweepOptions& o) {
+  std::vector<std::string> names;
+  if (o.methods.empty() && !o.methods_given) return names;
+  std::string rest = o.methods;
+  for (std::size_t at = 0; at <= rest.size();) {
+    const std::size_t comma = std::min(rest.find(',', at), rest.size());
+    const std::string name = rest.substr(at, comma - at);
+    at = comma + 1;
+    if (name.empty()) continue;
+    try {
+      find_method(name);
+    } catch (const Error& e) {
+      throw Error(e.kind(), fmt::format("--methods: {}", e.what()));
+    }
+    if (std::find(names.begin(), names.end(), name) != names.end())
+      throw Error(Error::Kind::kArgument,
+                  fmt::format("--methods names '{}' twice; name each method once", name));
+    names.push_back(name);
+  }
+  if (names.empty()) {
+    std::string all;
+    for (const MethodInfo& m : all_methods()) all += (all.empty() ? "" : ",") + std::string(m.name);
+    throw Error(Error::Kind::kArgument,
+                fmt::format("--methods '{}' names no method; give one or more of {} (or leave "
+                            "--methods out for all of them)",
+                            o.methods, all));
+  }
+  return names;
+}
+
+// The request the options make: methods, encoding, iterations, and --components as the
+// sizes of every method in place of its ladder.
+SweepRequest sweep_request(const SweepOptions& o) {
+  SweepRequest r;
+  r.methods = method_names(o);
+  r.encoding = parse_factor_encoding(o.precision, "--precision");
+  r.threads = o.threads;
+  r.seed = o.seed;
+  r.iterations = o.iterations;
+  if (!o.components.empty()) {
+    std::vector<MethodSettings> sizes;
+    for (std::size_t c : o.components) {
+      MethodSettings s;
+      s.components = c;
+      sizes.push_back(s);
+    }
+    if (r.methods.empty())
+      for (const MethodInfo& m : all_methods()) r.ladders[std::string(m.name)] = sizes;
+    for (const std::string& name : r.methods) r.ladders[name] = sizes;
+  }
+  if (o.keep_models) r.model_folder = fs::path(o.out) / "models";
+  return r;
+}
+
+// ---- progress on stderr --------------------------------------------------------------------
+
+// "[3/12] gm components 30: ..." with the time since the sweep began; the method's own
+// progress at most every 2 seconds.
+class ProgressPrinter {
+ public:
+  void operator()(const SweepProgress& p) {
+    using Event = SweepProgress::Event;
+    const std::string head =
+        fmt::format("[{}/{}] {} {}", p.index + 1, p.count, p.method, p.settings);
+    const std::string at = human_seconds(p.elapsed_seconds);
+    switch (p.event) {
+      case Event::kStart:
+        fmt::print(stderr, "{}: fitting ({} elapsed)\n", head, at);
+        last_ = p.elapsed_seconds;
+        break;
+      case Event::kFit:
+        if (p.elapsed_seconds - last_ < 2.0) break;
+        fmt::print(stderr, "{}: {} {:.0f}% ({} elapsed)\n", head, p.stage, 100.0 * p.fraction, at);
+        last_ = p.elapsed_seconds;
+        break;
+      case Event::kMeasure:
+        break;
+      case Event::kDone: {
+        const ModelComparison& c = *p.result;
+        fmt::print(stderr, "{}: {}, 1:{:.1f} (file), PSNR {} dB, fit {}, decode {} ({} elapsed)\n",
+                   head, c.model->size_text(), c.model->file_ratio(c.file_bytes),
+                   db_text(c.quality.psnr_db), human_seconds(c.fit_seconds),
+                   human_seconds(c.decode_seconds), at);
+        break;
+      }
+      case Event::kSkipped:
+        fmt::print(stderr, "{}: skipped: {}\n", head, p.message);
+        break;
+    }
+  }
+  static std::string db_text(double v) {
+    return std::isfinite(v) ? fmt::format("{:.2f}", v) : std::string("inf");
+  }
+
+ private:
+  double last_ = 0.0;
+};
+
+// ---- the table and sweep.json --------------------------------------------------------------
+
+void print_table(const SweepOutcome& s) {
+  fmt::print("{:<8} {:<14} {:>10} {:>10} {:>10} {:>10} {:>8} {:>8} {:>7} {:>8} {:>8}  {}\n",
+             "method", "size", "values", "bytes", "C.R. paper", "C.R. file", "RMSE", "PSNR dB",
+             "SSIM", "fit s", "decode s", "Pareto");
+  for (std::size_t k = 0; k < s.models.size(); ++k) {
+    const ModelComparison& c = s.models[k];
+    fmt::print(
+        "{:<8} {:<14} {:>10} {:>10} {:>10} {:>10} {:>8.4g} {:>8} {:>7.4f} {:>8.3f} {:>8.3f}  {}\n",
+        c.model->method(), c.model->size_text(), c.model->parameter_count(), c.file_bytes,
+        fmt::format("1:{:.1f}", c.model->paper_ratio()),
+        fmt::format("1:{:.1f}", c.model->file_ratio(c.file_bytes)), c.quality.rmse,
+        ProgressPrinter::db_text(c.quality.psnr_db), c.quality.ssim, c.fit_seconds,
+        c.decode_seconds, s.pareto[k] ? "*" : "");
+  }
+  if (!s.models.empty()) {
+    const BtfQuality& b = s.models[0].mean_brdf_only;
+    fmt::print(
+        "mean BRDF alone (each image its mean colour): RMSE {:.4g}, PSNR {} dB, SSIM {:.4f}\n",
+        b.rmse, ProgressPrinter::db_text(b.psnr_db), b.ssim);
+  }
+  for (const SkippedSetting& k : s.skipped)
+    fmt::print("skipped  {} {}: {}\n", k.method, k.settings, k.message);
+  fmt::print(
+      "* on the Pareto front: no model has a higher PSNR at the same or a higher "
+      "compression ratio of its file\n");
+}
+
+nlohmann::json model_json(const SweepOutcome& s, std::size_t k, bool kept) {
+  const ModelComparison& c = s.models[k];
+  nlohmann::json j;
+  j["name"] = c.name;
+  put_model_json(j, *c.model);
+  j["settings"] = s.settings[k];
+  j["file_bytes"] = c.file_bytes;
+  if (kept) j["model_file"] = "models/" + c.name + ".btfgmm";
+  j["compression_ratio_paper"] = c.model->paper_ratio();
+  j["compression_ratio_file"] = c.model->file_ratio(c.file_bytes);
+  j["rmse"] = c.quality.rmse;
+  j["psnr_db"] = c.quality.psnr_db;  // +infinity (exact) is written as null
+  j["ssim"] = c.quality.ssim;
+  j["fit_seconds"] = c.fit_seconds;
+  j["decode_seconds"] = c.decode_seconds;
+  j["pareto"] = bool(s.pareto[k]);
+  return j;
+}
+
+nlohmann::json sweep_json(const SweepOptions& o, const Btf& tile, const SweepOutcome& s) {
+  nlohmann::json j;
+  j["btf"] = o.btf;
+  j["tile"] = {tile.origin().x, tile.origin().y, tile.width(), tile.height()};
+  j["lights"] = tile.lights().size();
+  j["views"] = tile.views().size();
+  j["bit_depth"] = to_string(tile.format());
+  j["precision"] = o.precision;
+  j["seed"] = o.seed;
+  j["settings"] = s.total;
+  j["stopped"] = s.stopped;
+  j["models"] = nlohmann::json::array();
+  for (std::size_t k = 0; k < s.models.size(); ++k)
+    j["models"].push_back(model_json(s, k, o.keep_models));
+  j["skipped"] = nlohmann::json::array();
+  for (const SkippedSetting& k : s.skipped)
+    j["skipped"].push_back(
+        {{"method", k.method}, {"settings", k.settings}, {"message", k.message}});
+  if (!s.models.empty()) {
+    const BtfQuality& b = s.models[0].mean_brdf_only;
+    j["mean_brdf_only"] = {{"rmse", b.rmse}, {"psnr_db", b.psnr_db}, {"ssim", b.ssim}};
+  }
+  return j;
+}
+
+// ---- the command ---------------------------------------------------------------------------
+
+void run_sweep_command(const SweepOptions& o) {
+  SweepRequest r = sweep_request(o);  // the options checked before any work
+  check_output_folder(o.out, o.overwrite);
+  const auto t0 = Clock::now();
+  const BtfSource src = BtfSource::open(o.btf);
+  const Btf tile = src.load(tile_option(src, o.tile, o.quiet));
+  if (!o.quiet)
+    fmt::print(stderr, "loaded {}x{} pixels at ({}, {}) x {} lights x {} views in {}\n",
+               tile.width(), tile.height(), tile.origin().x, tile.origin().y, tile.lights().size(),
+               tile.views().size(), human_seconds(seconds_since(t0)));
+  std::error_code ec;
+  fs::create_directories(o.out, ec);
+  if (ec)
+    throw Error(Error::Kind::kIo, fmt::format("cannot create the folder '{}': {}; check the path "
+                                              "and its permissions",
+                                              o.out, ec.message()));
+  ProgressPrinter printer;
+  if (!o.quiet) r.progress = [&](const SweepProgress& p) { printer(p); };
+  r.stop = &g_stop;
+  SweepOutcome s;
+  {
+    const StopOnSignals stop_on_signals;
+    s = run_sweep(tile, r);
+  }
+  const nlohmann::json j = sweep_json(o, tile, s);
+  const std::string text = j.dump(2) + "\n";
+  write_file_atomically(fs::path(o.out) / "sweep.json",
+                        std::span(reinterpret_cast<const std::uint8_t*>(text.data()), text.size()),
+                        "sweep");
+  if (o.json)
+    std::cout << text;
+  else
+    print_table(s);
+  if (s.models.empty())
+    throw Error(
+        Error::Kind::kArgument,
+        s.stopped ? std::string("sweep: interrupted before any model was fitted")
+                  : fmt::format("sweep: no setting could be fitted to this tile (the "
+                                "first: {} {}: {}); give a larger tile or other sizes",
+                                s.skipped[0].method, s.skipped[0].settings, s.skipped[0].message));
+  ReportOptions ro;
+  ro.command = "sweep";
+  ro.skipped = s.skipped;
+  ro.note =
+      fmt::format("{} of {} settings fitted, factors stored as {}, seed {}{}", s.models.size(),
+                  s.total, o.precision, o.seed, s.stopped ? " (interrupted)" : "");
+  write_report(o.out, o.btf, s.models, ro);
+  if (!o.quiet)
+    fmt::print(stderr, "wrote {} and {}{}\n", (fs::path(o.out) / "index.html").string(),
+               (fs::path(o.out) / "sweep.json").string(),
+               o.keep_models ? fmt::format(" and {} model files in {}", s.models.size(),
+                                           r.model_folder.string())
+                             : std::string());
+  if (s.stopped) {
+    fmt::print(stderr, "interrupted after {} of {} settings; the report holds those done\n",
+               s.models.size() + s.skipped.size(), s.total);
+    std::exit(130);
+  }
+}
+
+// --methods' help: every method with its paper.
+std::string methods_help() {
+  std::string h = "Methods to sweep, comma-separated (default: all):";
+  for (const MethodInfo& m : all_methods())
+    h += fmt::format("\n  {:<8} {} ({})", m.name, m.title, m.citation);
+  return h;
+}
+
+}  // namespace
+
+void register_sweep_commands(CLI::App& app, Commands& commands) {
+  auto opt = std::make_shared<SweepOptions>();
+  auto* c = app.add_subcommand(
+      "sweep",
+      "Fit every method to a tile at each size of its ladder (compression 1:5 to 1:500), "
+      "measure each model, and write a table, sweep.json and an HTML report with the "
+      "rate-distortion curves and their Pareto front");
+  c->add_option("btf", opt->btf, "A BTF folder or Bonn .zip")->required();
+  c->add_option("--tile", opt->tile,
+                "X,Y,W,H of the tile, or auto:WxH for the most seamless tile of that size")
+      ->required();
+  c->add_option("-o,--output", opt->out,
+                "The folder to write (index.html, its pictures, sweep.json; new or empty)")
+      ->required();
+  auto* methods = c->add_option("--methods", opt->methods, methods_help());
+  c->add_option("--precision", opt->precision,
+                "Factors stored as f16, f32 or q8 (8 bits; the Gaussian mixture takes f16 or f32 "
+                "and is skipped with q8)")
+      ->capture_default_str();
+  c->add_option("--components", opt->components,
+                "Sizes fitted instead of each method's ladder, comma-separated: mixture "
+                "components M (gm), eigen-images (pca-btf, pca-rf), components per cluster (lpca)")
+      ->delimiter(',')
+      ->check(CLI::Range(std::size_t(1), std::size_t(100000)));
+  c->add_option("--iterations", opt->iterations,
+                "Iterations of every fit (gm: EM, lpca: rounds, plm-rf: Levenberg-Marquardt "
+                "steps); default: each method's")
+      ->check(CLI::Range(1, 100000));
+  c->add_option("--seed", opt->seed, "Seed of every fit's random start")->capture_default_str();
+  c->add_option("--threads", opt->threads, "Threads (0: all cores)")
+      ->check(CLI::Range(0, 1024))
+      ->capture_default_str();
+  c->add_flag("--keep-models", opt->keep_models, "Also write every model to OUTDIR/models/");
+  c->add_flag("--overwrite", opt->overwrite, "Replace the files of a non-empty output folder");
+  c->add_flag("--json", opt->json, "Print sweep.json on stdout instead of the table");
+  c->add_flag("-q,--quiet", opt->quiet, "No progress on stderr");
+  commands.push_back({c, [opt, methods] {
+                        opt->methods_given = methods->count() > 0;
+                        run_sweep_command(*opt);
+                      }});
+}
+
+}  // namespace btfgmm::cli

@@ -1,0 +1,311 @@
+// The rate-distortion sweep: its settings and results, skipped settings, the Pareto front, the
+// log axis of its chart, and `btfgmm sweep` end to end.
+#include <fmt/format.h>
+#include <gtest/gtest.h>
+
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <atomic>
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <limits>
+#include <nlohmann/json.hpp>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "btfgmm/btfgmm.hpp"
+#include "btfgmm/measure/sweep.hpp"
+#include "report/svg.hpp"
+#include "test_util.hpp"
+
+namespace btfgmm {
+namespace {
+
+namespace fs = std::filesystem;
+using test::error_of;
+
+const char* kLights = "rings:0/1,30/4";
+const char* kViews = "rings:0/1,45/4";
+
+// An 8 x 8 tile of 5 lights x 5 views (1600 samples).
+Btf tiny_tile() {
+  GenerateConfig g;
+  g.material = "knit";
+  g.size = 8;
+  g.seed = 3;
+  g.lights = DirectionSet::parse(kLights);
+  g.views = DirectionSet::parse(kViews);
+  g.supersample = 1;
+  return generate(g);
+}
+
+MethodSettings components(std::size_t m) {
+  MethodSettings s;
+  s.components = m;
+  return s;
+}
+
+// gm at M = 2 and 4, then M = 5000 (more than the tile's 1600 samples), 2 EM iterations.
+SweepRequest gm_request() {
+  SweepRequest r;
+  r.methods = {"gm"};
+  r.ladders["gm"] = {components(2), components(4), components(5000)};
+  r.iterations = 2;
+  return r;
+}
+
+// Every value of the attribute `name` in `text`.
+std::vector<std::string> attribute_values(const std::string& text, const std::string& name) {
+  std::vector<std::string> out;
+  const std::string key = " " + name + "=\"";
+  for (std::size_t at = text.find(key); at != std::string::npos; at = text.find(key, at + 1)) {
+    const std::size_t begin = at + key.size(), end = text.find('"', begin);
+    out.push_back(text.substr(begin, end - begin));
+  }
+  return out;
+}
+
+std::size_t count_of(const std::string& text, const std::string& what) {
+  std::size_t n = 0;
+  for (std::size_t at = text.find(what); at != std::string::npos; at = text.find(what, at + 1)) ++n;
+  return n;
+}
+
+TEST(Sweep, FitsTheLadderMeasuresEachModelAndSkipsRefusedSettings) {
+  const Btf tile = tiny_tile();
+  SweepRequest r = gm_request();
+  std::vector<std::string> events;
+  r.progress = [&](const SweepProgress& p) {
+    EXPECT_EQ(p.count, 3u);
+    EXPECT_EQ(p.method, "gm");
+    using E = SweepProgress::Event;
+    if (p.event == E::kStart) events.push_back(fmt::format("start {}", p.index));
+    if (p.event == E::kDone) events.push_back(fmt::format("done {} {}", p.index, p.result->name));
+    if (p.event == E::kSkipped) events.push_back(fmt::format("skipped {}", p.index));
+  };
+  const SweepOutcome s = run_sweep(tile, r);
+  EXPECT_EQ(events, (std::vector<std::string>{"start 0", "done 0 gm-M2", "start 1", "done 1 gm-M4",
+                                              "start 2", "skipped 2"}));
+  EXPECT_EQ(s.total, 3u);
+  EXPECT_FALSE(s.stopped);
+  ASSERT_EQ(s.models.size(), 2u);
+  ASSERT_EQ(s.settings.size(), 2u);
+  EXPECT_EQ(s.settings[0], "components 2, iterations 2");
+  for (std::size_t k = 0; k < 2; ++k) {
+    const ModelComparison& c = s.models[k];
+    EXPECT_EQ(c.model->method(), "gm");
+    EXPECT_EQ(c.model->size_order(), double(2 * (k + 1)));  // the ladder's sizes, in order
+    // The true size of the model file, which holds exactly this model.
+    const std::vector<std::uint8_t> bytes = representation_file_bytes(*c.model);
+    EXPECT_EQ(c.file_bytes, bytes.size());
+    EXPECT_GT(c.fit_seconds, 0.0);
+    EXPECT_GT(c.decode_seconds, 0.0);
+    // The quality is that of the model decoded against the tile.
+    const BtfQuality q =
+        measure_quality(tile, c.model->decode(tile.lights(), tile.views(), 8, 8, kDecodeTolerance));
+    EXPECT_DOUBLE_EQ(c.quality.rmse, q.rmse);
+    EXPECT_DOUBLE_EQ(c.quality.ssim, q.ssim);
+  }
+  EXPECT_EQ(s.models[0].name, "gm-M2");
+  EXPECT_EQ(s.pareto, pareto_front(s.models));
+  // The refused setting: recorded with the method's message.
+  ASSERT_EQ(s.skipped.size(), 1u);
+  EXPECT_EQ(s.skipped[0].method, "gm");
+  EXPECT_EQ(s.skipped[0].settings, "components 5000, iterations 2");
+  EXPECT_NE(s.skipped[0].message.find("5000"), std::string::npos) << s.skipped[0].message;
+  EXPECT_NE(s.skipped[0].message.find("1600 samples"), std::string::npos) << s.skipped[0].message;
+}
+
+TEST(Sweep, WritesModelFilesThatLoadAsTheModelsMeasured) {
+  const fs::path dir = fs::temp_directory_path() / ("btfgmm_sweep_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  SweepRequest r = gm_request();
+  r.ladders["gm"].pop_back();
+  r.encoding = FactorEncoding::kF32;
+  r.model_folder = dir / "models";
+  const Btf tile = tiny_tile();
+  const SweepOutcome s = run_sweep(tile, r);
+  ASSERT_EQ(s.models.size(), 2u);
+  for (const ModelComparison& c : s.models) {
+    const fs::path file = r.model_folder / (c.name + ".btfgmm");
+    ASSERT_TRUE(fs::exists(file)) << file;
+    EXPECT_EQ(fs::file_size(file), c.file_bytes);
+    EXPECT_EQ(representation_file_bytes(*load_representation(file)),
+              representation_file_bytes(*c.model));
+  }
+  fs::remove_all(dir);
+}
+
+TEST(Sweep, ChecksTheRequestAndStopsOnTheFlag) {
+  const Btf tile = tiny_tile();
+  SweepRequest r;
+  r.methods = {"gn"};
+  EXPECT_NE(error_of([&] { run_sweep(tile, r); }).find("did you mean 'gm'"), std::string::npos);
+  r.methods = {"gm", "gm"};
+  EXPECT_NE(error_of([&] { run_sweep(tile, r); }).find("named twice"), std::string::npos);
+  r.methods = {"gm"};
+  r.ladders["nothing"] = {};
+  EXPECT_NE(error_of([&] { run_sweep(tile, r); }).find("unknown method 'nothing'"),
+            std::string::npos);
+  // Stopped before the first fit: the method's own ladder counted, nothing fitted.
+  r.ladders.clear();
+  std::atomic<bool> stop{true};
+  r.stop = &stop;
+  const SweepOutcome s = run_sweep(tile, r);
+  EXPECT_TRUE(s.stopped);
+  EXPECT_TRUE(s.models.empty());
+  EXPECT_EQ(s.total, find_method("gm").ladder(ModelFrame::of(tile)).size());
+  EXPECT_EQ(settings_text(MethodSettings{}), "the method's defaults");
+}
+
+TEST(Sweep, ParetoFrontKeepsTheHighestPsnrAtEachRatioOrMore) {
+  const double nan = std::numeric_limits<double>::quiet_NaN(),
+               inf = std::numeric_limits<double>::infinity();
+  const std::vector<std::array<double, 2>> points = {
+      {10, 30},   // on it: nothing compresses more with 30 dB or more
+      {20, 28},   // on it
+      {15, 27},   // below (20, 28)
+      {20, 28},   // equal to a point on it: on it too
+      {5, 29},    // below (10, 30)
+      {40, 20},   // on it: the highest ratio
+      {nan, 50},  // not a point
+      {40, 19},   // below (40, 20): same ratio, lower PSNR
+      {2, inf},   // exact: on it
+  };
+  EXPECT_EQ(pareto_front(points),
+            (std::vector<bool>{true, true, false, true, false, true, false, false, true}));
+  EXPECT_TRUE(pareto_front(std::span<const std::array<double, 2>>{}).empty());
+}
+
+TEST(Sweep, LogAxisTicksAreDecades) {
+  svg::Axis a = svg::make_log_axis(3, 4000);
+  EXPECT_TRUE(a.log);
+  EXPECT_EQ(a.lo, 1.0);
+  EXPECT_EQ(a.hi, 10000.0);
+  EXPECT_EQ(svg::axis_ticks(a), (std::vector<double>{1, 10, 100, 1000, 10000}));
+  EXPECT_EQ(svg::axis_tick_text(a, 1000), "1000");
+  // Within two decades: 1, 2 and 5 times each decade, from and to the nearest of them.
+  a = svg::make_log_axis(7.3, 21.9);
+  EXPECT_EQ(a.lo, 5.0);
+  EXPECT_EQ(a.hi, 50.0);
+  EXPECT_EQ(svg::axis_ticks(a), (std::vector<double>{5, 10, 20, 50}));
+  // Over ten decades, every second one.
+  a = svg::make_log_axis(0.02, 3e7);
+  const std::vector<double> ticks = svg::axis_ticks(a);
+  ASSERT_EQ(ticks.size(), 6u);
+  for (std::size_t k = 0; k < ticks.size(); ++k)
+    EXPECT_DOUBLE_EQ(ticks[k], std::pow(10.0, -2.0 + 2.0 * double(k)));
+  EXPECT_EQ(svg::axis_tick_text(a, 0.01), "0.01");
+}
+
+TEST(Sweep, RateDistortionChartHasALogAxisAndACurvePerMethod) {
+  SweepRequest r = gm_request();
+  r.ladders["gm"] = {components(2), components(6), components(3)};
+  const SweepOutcome s = run_sweep(tiny_tile(), r);
+  ASSERT_EQ(s.models.size(), 3u);
+  const Chart c = rate_distortion_chart(s.models);
+  EXPECT_TRUE(c.x_log);
+  // The front, gm's curve, gm's paper's-count markers, the legend's entry for them.
+  ASSERT_EQ(c.series.size(), 4u);
+  const auto& curve = c.series[1].points;
+  ASSERT_EQ(curve.size(), 3u);
+  for (std::size_t k = 1; k < curve.size(); ++k) EXPECT_LT(curve[k - 1][0], curve[k][0]);
+  const std::string svg = svg_chart(c);
+  EXPECT_NE(svg.find("data-x-scale=\"log\""), std::string::npos);
+  EXPECT_EQ(count_of(svg, "<polyline"), 2u);  // the front and one curve (one method)
+  for (const std::string& pts : attribute_values(svg, "points")) {
+    std::istringstream in(pts);
+    std::string xy;
+    while (in >> xy) {
+      const double x = std::stod(xy.substr(0, xy.find(',')));
+      EXPECT_GE(x, 62.0);
+      EXPECT_LE(x, c.width - 14.0);
+    }
+  }
+}
+
+// ---- btfgmm sweep ------------------------------------------------------------------------
+
+struct CliRun {
+  int status = 0;
+  std::string out, err;
+};
+
+CliRun run(const std::string& args) {
+  const std::string base =
+      (fs::temp_directory_path() / ("btfgmm_sweep_test_" + std::to_string(::getpid()))).string();
+  const std::string cmd =
+      std::string(BTFGMM_CLI_PATH) + " " + args + " > " + base + ".out 2> " + base + ".err";
+  CliRun r;
+  const int raw = std::system(cmd.c_str());
+  r.status = WIFEXITED(raw) ? WEXITSTATUS(raw) : -1;
+  auto slurp = [](const std::string& p) {
+    std::ifstream in(p);
+    return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  };
+  r.out = slurp(base + ".out");
+  r.err = slurp(base + ".err");
+  return r;
+}
+
+std::string slurp(const fs::path& p) {
+  std::ifstream in(p);
+  return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+}
+
+TEST(SweepCli, WritesTheTableJsonAndReport) {
+  const fs::path dir =
+      fs::temp_directory_path() / ("btfgmm_sweep_cli_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  const std::string d = dir.string();
+  CliRun r =
+      run(fmt::format("generate --material knit --size 8 --seed 3 --lights {} --views {} "
+                      "-o {}/btf",
+                      kLights, kViews, d));
+  ASSERT_EQ(r.status, 0) << r.err;
+  const std::string sweep = "sweep " + d + "/btf --tile 0,0,8,8 --iterations 2 ";
+  r = run(sweep + "--components 2,4,5000 --keep-models -o " + d + "/out");
+  ASSERT_EQ(r.status, 0) << r.err;
+  for (const char* word : {"C.R. file", "PSNR dB", "decode s", "Pareto", "gm", "M = 4", "skipped"})
+    EXPECT_NE(r.out.find(word), std::string::npos) << word << "\n" << r.out;
+  EXPECT_NE(r.err.find("[3/3] gm components 5000"), std::string::npos) << r.err;
+  const auto j = nlohmann::json::parse(slurp(dir / "out/sweep.json"));
+  ASSERT_EQ(j["models"].size(), 2u);
+  EXPECT_EQ(j["models"][1]["size"], "M = 4");
+  EXPECT_EQ(j["models"][1]["file_bytes"], fs::file_size(dir / "out/models/gm-M4.btfgmm"));
+  EXPECT_TRUE(j["models"][0].contains("pareto"));
+  ASSERT_EQ(j["skipped"].size(), 1u);
+  EXPECT_EQ(j["tile"], nlohmann::json({0, 0, 8, 8}));
+  // The report: the rate-distortion chart on a log axis, one curve per method and the front.
+  const std::string html = slurp(dir / "out/index.html");
+  const std::size_t at = html.find("data-x-scale=\"log\"");
+  ASSERT_NE(at, std::string::npos);
+  const std::string chart = html.substr(at, html.find("</svg>", at) - at);
+  EXPECT_EQ(count_of(chart, "<polyline"), 2u);
+  EXPECT_NE(html.find("btfgmm sweep"), std::string::npos);
+  EXPECT_NE(html.find("One image decoded by each method"), std::string::npos);
+  EXPECT_NE(html.find("Not fitted"), std::string::npos);
+  EXPECT_TRUE(fs::exists(dir / "out/methods_original.png"));
+
+  // Errors: an unknown method (with the nearest name), no method, a folder in use.
+  r = run(sweep + "--methods gm,gn -o " + d + "/other");
+  EXPECT_EQ(r.status, 1);
+  EXPECT_NE(r.err.find("--methods: unknown method 'gn' (did you mean 'gm'?)"), std::string::npos)
+      << r.err;
+  r = run(sweep + "--methods , -o " + d + "/other");
+  EXPECT_EQ(r.status, 1);
+  EXPECT_NE(r.err.find("names no method"), std::string::npos) << r.err;
+  r = run(sweep + "-o " + d + "/out");
+  EXPECT_EQ(r.status, 1);
+  EXPECT_NE(r.err.find("--overwrite"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(dir / "other"));
+  fs::remove_all(dir);
+}
+
+}  // namespace
+}  // namespace btfgmm
