@@ -17,6 +17,8 @@
 #include <vector>
 
 #include "btfgmm/core/error.hpp"
+#include "btfgmm/methods/registry.hpp"
+#include "btfgmm/synth/generate.hpp"
 #include "core/random.hpp"
 #include "methods/pca.hpp"
 
@@ -105,6 +107,47 @@ void core_cases(Writer& w) {
          w.put("randomized", m.values, 160, 130));
 }
 
+// A small generated tile: 8 x 8 knit, 5 lights, 6 views.
+btfgmm::Btf small_tile() {
+  btfgmm::GenerateConfig g;
+  g.material = "knit";
+  g.size = 8;
+  g.seed = 3;
+  g.lights = btfgmm::DirectionSet::rings({{0, 1}, {30, 4}});
+  g.views = btfgmm::DirectionSet::rings({{0, 1}, {45, 5}});
+  return btfgmm::generate(g);
+}
+
+// The squared error of a method's decode (f32 factors) against the tile.
+double method_error(const btfgmm::Btf& tile, const std::string& method, std::size_t c,
+                    std::size_t clusters = 0) {
+  btfgmm::MethodSettings s;
+  s.components = c;
+  s.clusters = clusters;
+  s.encoding = btfgmm::FactorEncoding::kF32;
+  const auto r = btfgmm::find_method(method).fit(tile, s);
+  const btfgmm::Btf d = r->decode(tile.lights(), tile.views(), tile.width(), tile.height(), 0.0);
+  double e = 0.0;
+  for (std::size_t i = 0; i < d.data().size(); ++i) {
+    const double diff = double(d.data()[i]) - double(tile.data()[i]);
+    e += diff * diff;
+  }
+  return e;
+}
+
+// PCA BTF: the images as rows (ni*nv x 3MN).
+void pca_btf_cases(Writer& w, const btfgmm::Btf& tile) {
+  const std::string images = w.put("images", {tile.data().begin(), tile.data().end()},
+                                   tile.image_count(), tile.image_floats());
+  for (std::size_t c : {3, 8}) {
+    const auto p = btfgmm::detail::principal_components(tile.data(), tile.image_count(),
+                                                        tile.image_floats(), c);
+    w.line("error pca-btf-c" + std::to_string(c) + " " + std::to_string(c) + " 1 " +
+           number(method_error(tile, "pca-btf", c)) + " " + number(p.discarded_energy) + " " +
+           images);
+  }
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -115,6 +158,8 @@ int main(int argc, char** argv) {
   try {
     Writer w(argv[1]);
     core_cases(w);
+    const btfgmm::Btf tile = small_tile();
+    pca_btf_cases(w, tile);
   } catch (const btfgmm::Error& e) {
     std::fprintf(stderr, "pca_probe: %s\n", e.what());
     return 1;

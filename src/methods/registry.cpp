@@ -9,6 +9,7 @@
 #include "btfgmm/core/error.hpp"
 #include "btfgmm/io/files.hpp"
 #include "btfgmm/methods/gaussian_mixture.hpp"
+#include "btfgmm/methods/pca_btf.hpp"
 #include "btfgmm/model/model_file.hpp"
 
 namespace btfgmm {
@@ -38,6 +39,8 @@ const std::vector<MethodInfo>& table() {
        "Haindl, Havlicek, Vacha et al. (the paper btfgmm started from)",
        "--components M (600), --iterations (40)", fit_gaussian_mixture, read_gaussian_mixture,
        mixture_ladder},
+      {"pca-btf", "PCA BTF: one PCA of all images", "Koudelka, Magda, Belhumeur, Kriegman 2003",
+       "--components c (eigen-images, 61)", fit_pca_btf, read_pca_btf, pca_btf_ladder},
   };
   return methods;
 }
