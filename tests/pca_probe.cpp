@@ -148,6 +148,29 @@ void pca_btf_cases(Writer& w, const btfgmm::Btf& tile) {
   }
 }
 
+// PCA RF: one matrix per view, that view's light images as rows (ni x 3MN).
+void pca_rf_cases(Writer& w, const btfgmm::Btf& tile) {
+  const std::size_t ni = tile.lights().size(), d = tile.image_floats();
+  std::string specs;
+  std::vector<std::vector<float>> views;
+  for (std::size_t v = 0; v < tile.views().size(); ++v) {
+    std::vector<float> m;
+    for (std::size_t l = 0; l < ni; ++l) m.insert(m.end(), tile.image(l, v), tile.image(l, v) + d);
+    std::string name = "view";
+    name += std::to_string(v);
+    specs += ' ';
+    specs += w.put(name, m, ni, d);
+    views.push_back(std::move(m));
+  }
+  for (std::size_t c : {1, 2}) {
+    double discarded = 0.0;
+    for (const auto& m : views)
+      discarded += btfgmm::detail::principal_components(m, ni, d, c).discarded_energy;
+    w.line("error pca-rf-c" + std::to_string(c) + " " + std::to_string(c) + " 1 " +
+           number(method_error(tile, "pca-rf", c)) + " " + number(discarded) + specs);
+  }
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -160,6 +183,7 @@ int main(int argc, char** argv) {
     core_cases(w);
     const btfgmm::Btf tile = small_tile();
     pca_btf_cases(w, tile);
+    pca_rf_cases(w, tile);
   } catch (const btfgmm::Error& e) {
     std::fprintf(stderr, "pca_probe: %s\n", e.what());
     return 1;

@@ -10,6 +10,7 @@
 
 #include "btfgmm/core/interpolation.hpp"
 #include "btfgmm/methods/pca_btf.hpp"
+#include "btfgmm/methods/pca_rf.hpp"
 #include "btfgmm/methods/registry.hpp"
 #include "btfgmm/synth/generate.hpp"
 #include "core/random.hpp"
@@ -172,7 +173,7 @@ ModelFrame paper_frame() {
 // Small settings of each method, and settings with as many components as the data's rank.
 MethodSettings small_settings(const std::string& method, FactorEncoding e) {
   MethodSettings s;
-  s.components = 4;
+  s.components = method == "pca-btf" ? 4 : 2;
   if (method == "lpca") s.clusters = 3;
   s.encoding = e;
   return s;
@@ -191,7 +192,7 @@ MethodSettings full_rank_settings(const std::string& method) {
 }
 
 const std::vector<std::string>& methods() {
-  static const std::vector<std::string> m = {"pca-btf"};
+  static const std::vector<std::string> m = {"pca-btf", "pca-rf"};
   return m;
 }
 
@@ -380,6 +381,52 @@ TEST(PcaBtf, FactorsAreThePcaOfTheImages) {
       for (std::size_t j = 0; j < 192; ++j)
         dot += p.eigen_images()[a * 192 + j] * p.eigen_images()[b * 192 + j];
       EXPECT_NEAR(dot, a == b ? 1.0 : 0.0, 1e-5);
+    }
+}
+
+TEST(PcaRf, TableTwoRatio) {
+  const ModelFrame f = paper_frame();
+  EXPECT_EQ(pca_rf_parameter_count(f, 6), 81u * (7u * 1875u + 6u * 81u));
+  EXPECT_NEAR(f.data_values() / double(pca_rf_parameter_count(f, 6)), 11.16, 0.005);
+}
+
+TEST(PcaRf, LadderSpansWhatAPerViewPcaReaches) {
+  const ModelFrame f = paper_frame();
+  const auto ladder = find_method("pca-rf").ladder(f);
+  ASSERT_GE(ladder.size(), 3u);
+  const auto ratio = [&](const MethodSettings& s) {
+    return f.data_values() / double(pca_rf_parameter_count(f, s.components));
+  };
+  EXPECT_EQ(ladder.front().components, 1u);  // 1:40, the most a per-view PCA compresses
+  EXPECT_NEAR(ratio(ladder.front()), 40.0, 1.0);
+  EXPECT_NEAR(ratio(ladder.back()), 5.0, 0.5);
+}
+
+TEST(PcaRf, BadSettingsNameTheOption) {
+  MethodSettings s;
+  s.components = 5;
+  EXPECT_EQ(test::error_of([&] { fit("pca-rf", s); }),
+            "--components 5: pca-rf takes 1..4 for this tile of 5 lights a view");
+  s.components = 2;
+  s.clusters = 3;
+  EXPECT_NE(test::error_of([&] { fit("pca-rf", s); }).find("--clusters 3"), std::string::npos);
+}
+
+TEST(PcaRf, EachViewIsItsOwnPca) {
+  const auto r = fit("pca-rf", full_rank_settings("pca-rf"));
+  const auto& p = dynamic_cast<const PcaRf&>(*r);
+  EXPECT_EQ(p.size_text(), "c = 4");
+  EXPECT_EQ(p.parameter_count(), 6u * (5u * 192u + 4u * 5u));
+  // With 4 of a view's 5 images' 4 centred dimensions, every view is reproduced.
+  const Btf d = decode_measured(p);
+  EXPECT_LT(largest_difference(d.data(), small_tile().data()), 2e-3);
+  // Each view's mean image is the mean of its light images.
+  const Btf& tile = small_tile();
+  for (std::size_t v = 0; v < 6; ++v)
+    for (std::size_t j = 0; j < 192; j += 23) {
+      double mean = 0.0;
+      for (std::size_t l = 0; l < 5; ++l) mean += tile.image(l, v)[j];
+      EXPECT_NEAR(p.mean_images()[v * 192 + j], mean / 5.0, 1e-3);
     }
 }
 

@@ -33,6 +33,7 @@
 #include "btfgmm/methods/gaussian_mixture.hpp"
 #include "btfgmm/methods/measured_images.hpp"
 #include "btfgmm/methods/pca_btf.hpp"
+#include "btfgmm/methods/pca_rf.hpp"
 #include "btfgmm/methods/registry.hpp"
 #include "btfgmm/methods/representation.hpp"
 // measure: image quality, a model against its data, seamless tiles

@@ -90,8 +90,8 @@ Btf PcaBtf::decode(const DirectionSet& lights, const DirectionSet& views, int wi
       for (std::size_t k = 0; k < c; ++k)
         w[(a * vi->size() + b) * c + k] = weights_[k * images + p];
     }
-  detail::affine_product(w.data(), eigen_.data(), mean_.data(), pairs, c, frame().pixels() * 3,
-                         out.data().data());
+  const std::size_t d = frame().pixels() * 3;
+  detail::affine_product(w.data(), eigen_.data(), mean_.data(), pairs, c, d, out.data().data(), d);
   return out;
 }
 

@@ -117,9 +117,10 @@ std::optional<std::vector<std::size_t>> measured_indices(const DirectionSet& mea
 }
 
 void affine_product(const float* w, const float* basis, const float* mean, std::size_t rows,
-                    std::size_t k, std::size_t cols, float* out) {
+                    std::size_t k, std::size_t cols, float* out, std::size_t out_stride) {
   using RowMatF = Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
-  Eigen::Map<RowMatF> o(out, Eigen::Index(rows), Eigen::Index(cols));
+  Eigen::Map<RowMatF, 0, Eigen::OuterStride<>> o(out, Eigen::Index(rows), Eigen::Index(cols),
+                                                 Eigen::OuterStride<>(Eigen::Index(out_stride)));
   o.noalias() = Eigen::Map<const RowMatF>(w, Eigen::Index(rows), Eigen::Index(k)) *
                 Eigen::Map<const RowMatF>(basis, Eigen::Index(k), Eigen::Index(cols));
   o.rowwise() += Eigen::Map<const Eigen::RowVectorXf>(mean, Eigen::Index(cols));

@@ -61,9 +61,9 @@ void expect_no_flags(ByteReader& r, std::uint32_t flags);
 std::optional<std::vector<std::size_t>> measured_indices(const DirectionSet& measured,
                                                          const DirectionSet& asked);
 
-// out (rows x cols, row-major) = w (rows x k) x basis (k x cols) + mean (a row of cols), in
-// float: a matrix product (Eigen's).
+// out (rows x cols, row-major, rows `out_stride` floats apart) = w (rows x k) x basis (k x
+// cols) + mean (a row of cols), in float: a matrix product (Eigen's).
 void affine_product(const float* w, const float* basis, const float* mean, std::size_t rows,
-                    std::size_t k, std::size_t cols, float* out);
+                    std::size_t k, std::size_t cols, float* out, std::size_t out_stride);
 
 }  // namespace btfgmm::detail

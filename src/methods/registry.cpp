@@ -10,6 +10,7 @@
 #include "btfgmm/io/files.hpp"
 #include "btfgmm/methods/gaussian_mixture.hpp"
 #include "btfgmm/methods/pca_btf.hpp"
+#include "btfgmm/methods/pca_rf.hpp"
 #include "btfgmm/model/model_file.hpp"
 
 namespace btfgmm {
@@ -41,6 +42,8 @@ const std::vector<MethodInfo>& table() {
        mixture_ladder},
       {"pca-btf", "PCA BTF: one PCA of all images", "Koudelka, Magda, Belhumeur, Kriegman 2003",
        "--components c (eigen-images, 61)", fit_pca_btf, read_pca_btf, pca_btf_ladder},
+      {"pca-rf", "PCA RF: a PCA of each view's images", "Sattler, Sarlette, Klein 2003",
+       "--components c (eigen-images per view, 6)", fit_pca_rf, read_pca_rf, pca_rf_ladder},
   };
   return methods;
 }
