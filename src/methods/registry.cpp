@@ -9,6 +9,8 @@
 #include "btfgmm/core/error.hpp"
 #include "btfgmm/io/files.hpp"
 #include "btfgmm/methods/gaussian_mixture.hpp"
+#include "btfgmm/methods/pca_btf.hpp"
+#include "btfgmm/methods/pca_rf.hpp"
 #include "btfgmm/methods/plm_rf.hpp"
 #include "btfgmm/methods/ptm_rf.hpp"
 #include "btfgmm/model/model_file.hpp"
@@ -55,6 +57,10 @@ const std::vector<MethodInfo>& table() {
       {"gm", "Gaussian mixture of product components over (x, y, light, view, RGB)",
        "the paper btfgmm started from, Eq. (1)-(11)", "--components M (600), --iterations (40)",
        fit_gaussian_mixture, read_gaussian_mixture, mixture_ladder},
+      {"pca-btf", "PCA BTF: one PCA of all images", "Koudelka, Magda, Belhumeur, Kriegman 2003",
+       "--components c (eigen-images, 61)", fit_pca_btf, read_pca_btf, pca_btf_ladder},
+      {"pca-rf", "PCA RF: a PCA of each view's images", "Sattler, Sarlette, Klein 2003",
+       "--components c (eigen-images per view, 6)", fit_pca_rf, read_pca_rf, pca_rf_ladder},
       {"ptm-rf", "PTM RF: a polynomial texture map (biquadratic in the light) per view",
        "Malzbender, Gelb, Wolters 2001", "none (6 coefficients per texel, view and channel)",
        fit_ptm_rf, read_ptm_rf, ptm_rf_ladder},
