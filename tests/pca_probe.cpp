@@ -17,9 +17,11 @@
 #include <vector>
 
 #include "btfgmm/core/error.hpp"
+#include "btfgmm/methods/lpca.hpp"
 #include "btfgmm/methods/registry.hpp"
 #include "btfgmm/synth/generate.hpp"
 #include "core/random.hpp"
+#include "methods/lpca_fit.hpp"
 #include "methods/pca.hpp"
 
 namespace {
@@ -171,6 +173,34 @@ void pca_rf_cases(Writer& w, const btfgmm::Btf& tile) {
   }
 }
 
+// LPCA with one cluster: the PCA of the texel-BRDF matrix (MN x ni*nv*3), its error and its
+// reconstruction.
+void lpca_cases(Writer& w, const btfgmm::Btf& tile) {
+  const std::size_t texels = std::size_t(tile.width() * tile.height()),
+                    dims = tile.image_count() * 3;
+  const std::vector<float> x = btfgmm::detail::texel_brdfs(tile);
+  const std::string brdfs = w.put("texels", x, texels, dims);
+  for (std::size_t c : {3, 8}) {
+    const auto p = btfgmm::detail::principal_components(x, texels, dims, c);
+    w.line("error lpca-k1-c" + std::to_string(c) + " " + std::to_string(c) + " 1 " +
+           number(method_error(tile, "lpca", c, 1)) + " " + number(p.discarded_energy) + " " +
+           brdfs);
+  }
+  btfgmm::MethodSettings s;
+  s.clusters = 1;
+  s.components = 3;
+  s.encoding = btfgmm::FactorEncoding::kF32;
+  const auto r = btfgmm::find_method("lpca").fit(tile, s);
+  const btfgmm::Btf d = r->decode(tile.lights(), tile.views(), tile.width(), tile.height(), 0.0);
+  std::vector<float> recon(texels * dims);
+  for (std::size_t p = 0; p < tile.image_count(); ++p)
+    for (std::size_t t = 0; t < texels; ++t)
+      for (std::size_t ch = 0; ch < 3; ++ch)
+        recon[t * dims + p * 3 + ch] = d.data()[p * tile.image_floats() + t * 3 + ch];
+  const std::string spec = w.put("lpca-recon", recon, texels, dims);
+  w.line("recon lpca-k1-c3 3 1 " + brdfs + " " + spec.substr(0, spec.find(':')));
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -184,6 +214,7 @@ int main(int argc, char** argv) {
     const btfgmm::Btf tile = small_tile();
     pca_btf_cases(w, tile);
     pca_rf_cases(w, tile);
+    lpca_cases(w, tile);
   } catch (const btfgmm::Error& e) {
     std::fprintf(stderr, "pca_probe: %s\n", e.what());
     return 1;

@@ -9,11 +9,13 @@
 #include <vector>
 
 #include "btfgmm/core/interpolation.hpp"
+#include "btfgmm/methods/lpca.hpp"
 #include "btfgmm/methods/pca_btf.hpp"
 #include "btfgmm/methods/pca_rf.hpp"
 #include "btfgmm/methods/registry.hpp"
 #include "btfgmm/synth/generate.hpp"
 #include "core/random.hpp"
+#include "methods/lpca_fit.hpp"
 #include "methods/pca.hpp"
 #include "test_util.hpp"
 
@@ -192,7 +194,7 @@ MethodSettings full_rank_settings(const std::string& method) {
 }
 
 const std::vector<std::string>& methods() {
-  static const std::vector<std::string> m = {"pca-btf", "pca-rf"};
+  static const std::vector<std::string> m = {"pca-btf", "pca-rf", "lpca"};
   return m;
 }
 
@@ -428,6 +430,116 @@ TEST(PcaRf, EachViewIsItsOwnPca) {
       for (std::size_t l = 0; l < 5; ++l) mean += tile.image(l, v)[j];
       EXPECT_NEAR(p.mean_images()[v * 192 + j], mean / 5.0, 1e-3);
     }
+}
+
+// LPCA is a PCA over texels (rows: the 64 texels' BRDFs of 90 values, centred by the mean
+// BRDF), PCA BTF one over images (rows: the 30 images of 192 values, centred by the mean
+// image): different matrices, different models. What is equal: LPCA with one cluster is the
+// rank-c PCA of the texel-BRDF matrix (here against the shared PCA; tests/numpy_pca_check.py
+// checks it against numpy's SVD), and with full rank both reproduce the data.
+TEST(Lpca, OneClusterIsThePcaOfTheTexelBrdfs) {
+  MethodSettings s = small_settings("lpca", FactorEncoding::kF32);
+  s.clusters = 1;
+  s.components = 5;
+  const auto r = fit("lpca", s);
+  const auto& l = dynamic_cast<const Lpca&>(*r);
+  EXPECT_EQ(l.rounds().rounds, 1u);
+  EXPECT_TRUE(l.rounds().converged);
+  const auto x = detail::texel_brdfs(small_tile());
+  const auto pca = detail::reconstruct(detail::principal_components(x, 64, 90, 5));
+  const Btf d = decode_measured(l);
+  double worst = 0.0;
+  for (std::size_t t = 0; t < 64; ++t)
+    for (std::size_t p = 0; p < 30; ++p)
+      for (std::size_t ch = 0; ch < 3; ++ch)
+        worst = std::max(
+            worst, std::abs(pca[t * 90 + p * 3 + ch] - double(d.data()[p * 192 + t * 3 + ch])));
+  EXPECT_LT(worst, 2e-3);
+  // The same rank on images is another model: PCA BTF with 5 eigen-images leaves another error.
+  MethodSettings b = small_settings("pca-btf", FactorEncoding::kF32);
+  b.components = 5;
+  const double lpca_db = psnr(d.data(), small_tile().data()),
+               btf_db = psnr(decode_measured(*fit("pca-btf", b)).data(), small_tile().data());
+  EXPECT_GT(std::abs(lpca_db - btf_db), 0.1);
+}
+
+TEST(Lpca, NoTexelWouldMoveAtTheEnd) {
+  const auto x = detail::texel_brdfs(small_tile());
+  MethodSettings s;
+  s.seed = 5;
+  const detail::LocalPca l = detail::fit_local_pca(x, 64, 90, 4, 2, 100, s);
+  ASSERT_TRUE(l.converged);
+  const auto err = detail::reconstruction_errors(x, 64, 90, l.pcas);
+  for (std::size_t t = 0; t < 64; ++t)
+    for (std::size_t a = 0; a < 4; ++a) EXPECT_LE(err[t * 4 + l.cluster[t]], err[t * 4 + a]);
+  // Kambhatla-Leen's two steps never raise the total error.
+  for (std::size_t i = 1; i < l.errors.size(); ++i)
+    EXPECT_LE(l.errors[i], l.errors[i - 1] * (1 + 1e-12)) << "round " << i + 1;
+  std::vector<std::size_t> count(4, 0);
+  for (std::uint32_t a : l.cluster) ++count[a];
+  for (std::size_t n : count) EXPECT_GT(n, 0u);
+  // The method stores that fit: the same clusters, converged.
+  MethodSettings m;
+  m.clusters = 4;
+  m.components = 2;
+  m.iterations = 100;
+  m.seed = 5;
+  m.encoding = FactorEncoding::kF32;
+  const auto r = fit("lpca", m);
+  const auto& lp = dynamic_cast<const Lpca&>(*r);
+  EXPECT_TRUE(lp.rounds().converged);
+  EXPECT_EQ(std::vector<std::uint32_t>(lp.cluster_of().begin(), lp.cluster_of().end()), l.cluster);
+  // Local beats global at the same number of components a texel.
+  MethodSettings one = m;
+  one.clusters = 1;
+  EXPECT_GT(psnr(decode_measured(lp).data(), small_tile().data()),
+            psnr(decode_measured(*fit("lpca", one)).data(), small_tile().data()));
+}
+
+TEST(Lpca, TableTwoRatio) {
+  const ModelFrame f = paper_frame();
+  EXPECT_EQ(lpca_parameter_count(f, 8, 4), 8u * 5u * 19683u + 625u * 5u);
+  EXPECT_NEAR(f.data_values() / double(lpca_parameter_count(f, 8, 4)), 15.56, 0.005);
+  // Table 2's 21.4: no (k, c) gives it; the nearest is one cluster of 27 components (21.63).
+  double nearest = 1e9;
+  std::size_t best_k = 0, best_c = 0;
+  for (std::size_t k = 1; k <= 64; ++k)
+    for (std::size_t c = 1; c <= 624; ++c) {
+      const double ratio = f.data_values() / double(lpca_parameter_count(f, k, c));
+      EXPECT_GT(std::abs(ratio - 21.4), 0.05) << k << " " << c;
+      if (std::abs(ratio - 21.4) < std::abs(nearest - 21.4))
+        nearest = ratio, best_k = k, best_c = c;
+    }
+  EXPECT_EQ(best_k, 1u);
+  EXPECT_EQ(best_c, 27u);
+  EXPECT_NEAR(nearest, 21.63, 0.005);
+}
+
+TEST(Lpca, LadderSpansTheRatios) {
+  const ModelFrame f = paper_frame();
+  const auto ladder = find_method("lpca").ladder(f);
+  ASSERT_GE(ladder.size(), 4u);
+  std::vector<double> ratios;
+  for (const MethodSettings& s : ladder)
+    ratios.push_back(f.data_values() / double(lpca_parameter_count(f, s.clusters, s.components)));
+  for (std::size_t i = 1; i < ratios.size(); ++i) EXPECT_LT(ratios[i], ratios[i - 1]);
+  EXPECT_NEAR(ratios.front(), 303.0, 1.0);  // k = 1, c = 1: the most LPCA compresses here
+  EXPECT_NEAR(ratios.back(), 5.0, 0.5);
+}
+
+TEST(Lpca, BadSettingsNameTheOption) {
+  MethodSettings s;
+  s.clusters = 65;
+  s.components = 2;
+  EXPECT_EQ(test::error_of([&] { fit("lpca", s); }),
+            "--clusters 65: lpca takes 1..64 for this tile of 64 texels (90 values each)");
+  s.clusters = 2;
+  s.components = 64;
+  EXPECT_EQ(test::error_of([&] { fit("lpca", s); }),
+            "--components 64: lpca takes 1..63 for this tile of 64 texels (90 values each)");
+  s.components = 2;
+  s.iterations = -1;
+  EXPECT_NE(test::error_of([&] { fit("lpca", s); }).find("--iterations -1"), std::string::npos);
 }
 
 }  // namespace

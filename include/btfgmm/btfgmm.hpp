@@ -31,6 +31,7 @@
 #include "btfgmm/model/samples.hpp"
 // methods: one interface for every representation (the mixture and the comparison methods)
 #include "btfgmm/methods/gaussian_mixture.hpp"
+#include "btfgmm/methods/lpca.hpp"
 #include "btfgmm/methods/measured_images.hpp"
 #include "btfgmm/methods/pca_btf.hpp"
 #include "btfgmm/methods/pca_rf.hpp"

@@ -9,6 +9,7 @@
 #include "btfgmm/core/error.hpp"
 #include "btfgmm/io/files.hpp"
 #include "btfgmm/methods/gaussian_mixture.hpp"
+#include "btfgmm/methods/lpca.hpp"
 #include "btfgmm/methods/pca_btf.hpp"
 #include "btfgmm/methods/pca_rf.hpp"
 #include "btfgmm/methods/plm_rf.hpp"
@@ -61,6 +62,10 @@ const std::vector<MethodInfo>& table() {
        "--components c (eigen-images, 61)", fit_pca_btf, read_pca_btf, pca_btf_ladder},
       {"pca-rf", "PCA RF: a PCA of each view's images", "Sattler, Sarlette, Klein 2003",
        "--components c (eigen-images per view, 6)", fit_pca_rf, read_pca_rf, pca_rf_ladder},
+      {"lpca", "LPCA: a local PCA of the texels' apparent BRDFs (k clusters, a PCA each)",
+       "Mueller, Meseth, Klein 2003; Kambhatla, Leen 1997",
+       "--clusters k (8), --components c (per cluster, 4), --iterations (rounds, 20)", fit_lpca,
+       read_lpca, lpca_ladder},
       {"ptm-rf", "PTM RF: a polynomial texture map (biquadratic in the light) per view",
        "Malzbender, Gelb, Wolters 2001", "none (6 coefficients per texel, view and channel)",
        fit_ptm_rf, read_ptm_rf, ptm_rf_ladder},
