@@ -272,7 +272,7 @@ TEST(SweepCli, WritesTheTableJsonAndReport) {
                       kLights, kViews, d));
   ASSERT_EQ(r.status, 0) << r.err;
   const std::string sweep = "sweep " + d + "/btf --tile 0,0,8,8 --iterations 2 ";
-  r = run(sweep + "--components 2,4,5000 --keep-models -o " + d + "/out");
+  r = run(sweep + "--methods gm --components 2,4,5000 --keep-models -o " + d + "/out");
   ASSERT_EQ(r.status, 0) << r.err;
   for (const char* word : {"C.R. file", "PSNR dB", "decode s", "Pareto", "gm", "M = 4", "skipped"})
     EXPECT_NE(r.out.find(word), std::string::npos) << word << "\n" << r.out;

@@ -32,6 +32,10 @@
 // methods: one interface for every representation (the mixture and the comparison methods)
 #include "btfgmm/methods/gaussian_mixture.hpp"
 #include "btfgmm/methods/measured_images.hpp"
+#include "btfgmm/methods/pca_btf.hpp"
+#include "btfgmm/methods/pca_rf.hpp"
+#include "btfgmm/methods/plm_rf.hpp"
+#include "btfgmm/methods/ptm_rf.hpp"
 #include "btfgmm/methods/registry.hpp"
 #include "btfgmm/methods/representation.hpp"
 // measure: image quality, a model against its data, the rate-distortion sweep, seamless tiles

@@ -9,6 +9,10 @@
 #include "btfgmm/core/error.hpp"
 #include "btfgmm/io/files.hpp"
 #include "btfgmm/methods/gaussian_mixture.hpp"
+#include "btfgmm/methods/pca_btf.hpp"
+#include "btfgmm/methods/pca_rf.hpp"
+#include "btfgmm/methods/plm_rf.hpp"
+#include "btfgmm/methods/ptm_rf.hpp"
 #include "btfgmm/model/model_file.hpp"
 
 namespace btfgmm {
@@ -32,11 +36,37 @@ std::vector<MethodSettings> mixture_ladder(const ModelFrame&) {
   return out;
 }
 
+// PTM RF has one size.
+std::vector<MethodSettings> ptm_rf_ladder(const ModelFrame&) {
+  return {MethodSettings{}};
+}
+
+// PLM RF's size hardly moves with the polynomial's degree (the lobes dominate): l = 1, 2, 4.
+std::vector<MethodSettings> plm_rf_ladder(const ModelFrame&) {
+  std::vector<MethodSettings> out;
+  for (std::size_t l : {1, 2, 4}) {
+    MethodSettings s;
+    s.degree = l;
+    out.push_back(s);
+  }
+  return out;
+}
+
 const std::vector<MethodInfo>& table() {
   static const std::vector<MethodInfo> methods = {
       {"gm", "Gaussian mixture of product components over (x, y, light, view, RGB)",
        "the paper btfgmm started from, Eq. (1)-(11)", "--components M (600), --iterations (40)",
        fit_gaussian_mixture, read_gaussian_mixture, mixture_ladder},
+      {"pca-btf", "PCA BTF: one PCA of all images", "Koudelka, Magda, Belhumeur, Kriegman 2003",
+       "--components c (eigen-images, 61)", fit_pca_btf, read_pca_btf, pca_btf_ladder},
+      {"pca-rf", "PCA RF: a PCA of each view's images", "Sattler, Sarlette, Klein 2003",
+       "--components c (eigen-images per view, 6)", fit_pca_rf, read_pca_rf, pca_rf_ladder},
+      {"ptm-rf", "PTM RF: a polynomial texture map (biquadratic in the light) per view",
+       "Malzbender, Gelb, Wolters 2001", "none (6 coefficients per texel, view and channel)",
+       fit_ptm_rf, read_ptm_rf, ptm_rf_ladder},
+      {"plm-rf", "PLM RF: a Lafortune lobe per texel and view, a polynomial per image",
+       "Filip, Haindl 2004", "--degree l (4) of the per-image polynomial, --iterations (30)",
+       fit_plm_rf, read_plm_rf, plm_rf_ladder},
   };
   return methods;
 }

@@ -1,4 +1,4 @@
-// libFuzzer target: the model-file reader (docs/FORMAT.md) on arbitrary bytes. Every input
+// libFuzzer target: the model-file reader of every method (docs/FORMAT.md) on arbitrary bytes. Every input
 // must either be read or be refused with btfgmm::Error; anything else (a crash, a sanitizer
 // report, another exception) is a bug. A model that is read must evaluate and round-trip.
 //
@@ -8,42 +8,41 @@
 
 #include <cstdint>
 #include <cstring>
+#include <memory>
 #include <span>
 #include <vector>
 
 #include "btfgmm/core/error.hpp"
-#include "btfgmm/model/decode.hpp"
-#include "btfgmm/model/model.hpp"
-#include "btfgmm/model/model_file.hpp"
-#include "btfgmm/model/predict.hpp"
+#include "btfgmm/methods/registry.hpp"
+#include "btfgmm/methods/representation.hpp"
 
 namespace {
 
+// Any method's model (methods/registry.hpp): read, evaluated at a measured pair and between
+// pairs, decoded small, and written back to bytes that read again.
 void read_and_use(std::span<const std::uint8_t> bytes) {
-  btfgmm::BtfModel m;
+  std::unique_ptr<btfgmm::Representation> m;
   try {
-    m = btfgmm::deserialize_model(bytes, "fuzz.btfgmm");
+    m = btfgmm::read_representation(bytes, "fuzz.btfgmm");
   } catch (const btfgmm::Error&) {
     return;
   }
-  // Evaluation: the conditional weights and the mean BRDF interpolated over the model's own
-  // direction sets, at a measured pair and between pairs.
-  btfgmm::Query q;
-  q.x = 0.5;
-  q.y = -3.25;
-  q.light = m.lights[0];
-  q.view = m.views[m.views.size() - 1];
-  (void)btfgmm::predict(m, q);
-  q.light = {45.0, 10.0};
-  q.view = {89.0, 359.0};
-  (void)btfgmm::predict(m, q);
+  const btfgmm::ModelFrame& f = m->frame();
+  btfgmm::Query q[2];
+  q[0].x = 0.5;
+  q[0].y = -3.25;
+  q[0].light = f.lights[0];
+  q[0].view = f.views[f.views.size() - 1];
+  q[1].light = {45.0, 10.0};
+  q[1].view = {89.0, 359.0};
+  float rgb[6];
+  m->predict(q, rgb);
   // Decoding sizes its tables by the tile: only small ones here.
-  if (std::size_t(m.width) * std::size_t(m.height) <= 4096)
-    (void)btfgmm::decode(m, btfgmm::DirectionSet({m.lights[0]}), btfgmm::DirectionSet({m.views[0]}),
-                         2, 3);
-  // What is read is written back to the same bytes' meaning.
-  const std::vector<std::uint8_t> again = btfgmm::serialize_model(m);
-  (void)btfgmm::deserialize_model(again, "fuzz-again.btfgmm");
+  if (f.pixels() <= 4096)
+    (void)m->decode(btfgmm::DirectionSet({f.lights[0]}), btfgmm::DirectionSet({f.views[0]}), 2, 3,
+                    1e-3);
+  const std::vector<std::uint8_t> again = btfgmm::representation_file_bytes(*m);
+  (void)btfgmm::read_representation(again, "fuzz-again.btfgmm");
 }
 
 }  // namespace

@@ -1,0 +1,259 @@
+// Principal component analysis by the Gram matrix of the smaller side or by a randomized SVD
+// (pca.hpp).
+#include "methods/pca.hpp"
+
+#include <algorithm>
+#include <cassert>
+#include <cmath>
+
+#include "core/random.hpp"
+#include "methods/eigen_dense.hpp"
+
+namespace btfgmm::detail {
+namespace {
+
+using MatD = Eigen::MatrixXd;
+using RowMatF = Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+
+// About this many doubles in a block of the data converted for a product.
+constexpr std::size_t kBlockValues = std::size_t(1) << 21;
+
+// The data minus its mean, read in blocks of rows or columns converted to double.
+class CentredData {
+ public:
+  CentredData(std::span<const float> x, std::size_t rows, std::size_t cols, bool centre)
+      : x_(x.data(), Eigen::Index(rows), Eigen::Index(cols)),
+        mean_(Eigen::RowVectorXd::Zero(Eigen::Index(cols))) {
+    if (!centre || rows == 0) return;
+    for (std::size_t r0 = 0; r0 < rows; r0 += row_step())
+      mean_ += x_.middleRows(Eigen::Index(r0), Eigen::Index(std::min(row_step(), rows - r0)))
+                   .cast<double>()
+                   .colwise()
+                   .sum();
+    mean_ /= double(rows);
+  }
+
+  std::size_t rows() const { return std::size_t(x_.rows()); }
+  std::size_t cols() const { return std::size_t(x_.cols()); }
+  const Eigen::RowVectorXd& mean() const { return mean_; }
+  std::size_t row_step() const { return std::max<std::size_t>(1, kBlockValues / cols()); }
+  std::size_t col_step() const { return std::max<std::size_t>(1, kBlockValues / rows()); }
+
+  // Rows [r0, r0 + n) or columns [c0, c0 + n), centred.
+  MatD row_block(std::size_t r0, std::size_t n) const {
+    return x_.middleRows(Eigen::Index(r0), Eigen::Index(n)).cast<double>().rowwise() - mean_;
+  }
+  MatD col_block(std::size_t c0, std::size_t n) const {
+    return x_.middleCols(Eigen::Index(c0), Eigen::Index(n)).cast<double>().rowwise() -
+           mean_.segment(Eigen::Index(c0), Eigen::Index(n));
+  }
+
+  // f(block, first column, columns) for every block of columns, in order.
+  template <class F>
+  void for_col_blocks(F f) const {
+    for (std::size_t c0 = 0; c0 < cols(); c0 += col_step()) {
+      const std::size_t n = std::min(col_step(), cols() - c0);
+      f(col_block(c0, n), Eigen::Index(c0), Eigen::Index(n));
+    }
+  }
+  template <class F>
+  void for_row_blocks(F f) const {
+    for (std::size_t r0 = 0; r0 < rows(); r0 += row_step()) {
+      const std::size_t n = std::min(row_step(), rows() - r0);
+      f(row_block(r0, n), Eigen::Index(r0), Eigen::Index(n));
+    }
+  }
+
+ private:
+  Eigen::Map<const RowMatF> x_;
+  Eigen::RowVectorXd mean_;
+};
+
+// Orthonormal columns spanning the leading columns of `v` in order (Householder QR: the first
+// j columns of the result span the first j of `v`).
+MatD orthonormal_columns(const MatD& v) {
+  Eigen::HouseholderQR<MatD> qr(v);
+  return qr.householderQ() * MatD::Identity(v.rows(), v.cols());
+}
+
+// A rows x cols matrix of standard normal values (Box-Muller), deterministic from the seed.
+MatD gaussian_matrix(Eigen::Index rows, Eigen::Index cols, std::uint64_t seed) {
+  SplitMix64 rng(mix64(seed ^ 0x5043412D52414E44ULL));
+  MatD m(rows, cols);
+  for (Eigen::Index j = 0; j < cols; ++j)
+    for (Eigen::Index i = 0; i < rows; ++i) {
+      const double u = 1.0 - rng.uniform(), v = rng.uniform();
+      m(i, j) = std::sqrt(-2.0 * std::log(u)) * std::cos(6.283185307179586 * v);
+    }
+  return m;
+}
+
+// The eigenpairs of a symmetric matrix, largest eigenvalue first; negative round-off is 0.
+struct Eigenpairs {
+  Eigen::VectorXd values;
+  MatD vectors;
+};
+Eigenpairs descending_eigenpairs(const MatD& g) {
+  Eigen::SelfAdjointEigenSolver<MatD> es(g);
+  Eigenpairs e;
+  e.values = es.eigenvalues().reverse().cwiseMax(0.0);
+  e.vectors = es.eigenvectors().rowwise().reverse();
+  return e;
+}
+
+// The Gram matrix of the columns side, Xcᵀ Xc (cols x cols), and |Xc|².
+MatD column_gram(const CentredData& d, double& total) {
+  MatD g = MatD::Zero(Eigen::Index(d.cols()), Eigen::Index(d.cols()));
+  total = 0.0;
+  d.for_row_blocks([&](const MatD& b, Eigen::Index, Eigen::Index) {
+    g.noalias() += b.transpose() * b;
+    total += b.squaredNorm();
+  });
+  return g;
+}
+
+// The Gram matrix of the rows side, Xc Xcᵀ (rows x rows), and |Xc|².
+MatD row_gram(const CentredData& d, double& total) {
+  MatD g = MatD::Zero(Eigen::Index(d.rows()), Eigen::Index(d.rows()));
+  total = 0.0;
+  d.for_col_blocks([&](const MatD& b, Eigen::Index, Eigen::Index) {
+    g.noalias() += b * b.transpose();
+    total += b.squaredNorm();
+  });
+  return g;
+}
+
+// Xcᵀ u (cols x u.cols()).
+MatD transpose_times(const CentredData& d, const MatD& u) {
+  MatD out(Eigen::Index(d.cols()), u.cols());
+  d.for_col_blocks([&](const MatD& b, Eigen::Index c0, Eigen::Index n) {
+    out.middleRows(c0, n).noalias() = b.transpose() * u;
+  });
+  return out;
+}
+
+// Xc v (rows x v.cols()).
+MatD times(const CentredData& d, const MatD& v) {
+  MatD out = MatD::Zero(Eigen::Index(d.rows()), v.cols());
+  d.for_col_blocks([&](const MatD& b, Eigen::Index c0, Eigen::Index n) {
+    out.noalias() += b * v.middleRows(c0, n);
+  });
+  return out;
+}
+
+// `v` (cols x k, k <= c) extended to c orthonormal columns: seeded Gaussian columns appended,
+// then orthonormalised in order.
+MatD complete_basis(const MatD& v, std::size_t c, std::uint64_t seed) {
+  MatD w(v.rows(), Eigen::Index(c));
+  w.leftCols(v.cols()) = v;
+  if (Eigen::Index(c) > v.cols())
+    w.rightCols(Eigen::Index(c) - v.cols()) =
+        gaussian_matrix(v.rows(), Eigen::Index(c) - v.cols(), seed + 1);
+  return orthonormal_columns(w);
+}
+
+// The top c right singular vectors (cols x c) from the Gram matrix of the smaller side.
+MatD gram_directions(const CentredData& d, std::size_t c, const PcaSettings& s, Pca& p) {
+  if (d.rows() > d.cols()) {
+    const Eigenpairs e = descending_eigenpairs(column_gram(d, p.total_energy));
+    p.singular_values.assign(e.values.begin(), e.values.end());
+    return e.vectors.leftCols(Eigen::Index(c));
+  }
+  const Eigenpairs e = descending_eigenpairs(row_gram(d, p.total_energy));
+  p.singular_values.assign(e.values.begin(), e.values.end());
+  const Eigen::Index k = std::min(Eigen::Index(c), e.values.size());
+  // Xcᵀ u_i = s_i v_i: normalised (and re-orthogonalised) by the QR.
+  return complete_basis(transpose_times(d, e.vectors.leftCols(k)), c, s.seed);
+}
+
+// The top c right singular vectors by a randomized SVD: an orthonormal basis Q of the range of
+// Xc Ω refined by power iterations, then the exact SVD of the small Qᵀ Xc.
+MatD randomized_directions(const CentredData& d, std::size_t c, const PcaSettings& s, Pca& p) {
+  const Eigen::Index l =
+      Eigen::Index(std::min({c + std::max<std::size_t>(10, c / 2), d.rows(), d.cols()}));
+  MatD q = orthonormal_columns(times(d, gaussian_matrix(Eigen::Index(d.cols()), l, s.seed)));
+  for (int i = 0; i < s.power_iterations; ++i)
+    q = orthonormal_columns(times(d, orthonormal_columns(transpose_times(d, q))));
+  const MatD b = transpose_times(d, q).transpose();  // l x cols
+  const Eigenpairs e = descending_eigenpairs(b * b.transpose());
+  p.singular_values.assign(e.values.begin(), e.values.end());
+  p.total_energy = 0.0;
+  d.for_row_blocks(
+      [&](const MatD& blk, Eigen::Index, Eigen::Index) { p.total_energy += blk.squaredNorm(); });
+  p.randomized = true;
+  return orthonormal_columns(b.transpose() * e.vectors.leftCols(Eigen::Index(c)));
+}
+
+bool use_randomized(std::size_t rows, std::size_t cols, std::size_t c, const PcaSettings& s) {
+  const std::size_t side = std::min(rows, cols);
+  return side > s.randomized_above && 4 * (c + std::max<std::size_t>(10, c / 2)) < side;
+}
+
+}  // namespace
+
+Pca principal_components(std::span<const float> x, std::size_t rows, std::size_t cols,
+                         std::size_t components, const PcaSettings& s) {
+  assert(x.size() == rows * cols && rows > 0 && components >= 1 && components <= cols);
+  const CentredData d(x, rows, cols, s.centre);
+  Pca p;
+  p.rows = rows;
+  p.cols = cols;
+  p.components = components;
+  const MatD v = use_randomized(rows, cols, components, s)
+                     ? randomized_directions(d, components, s, p)
+                     : gram_directions(d, components, s, p);
+  for (double& sv : p.singular_values) sv = std::sqrt(sv);
+  const MatD w = times(d, v);
+  if (p.randomized) {
+    p.discarded_energy = std::max(0.0, p.total_energy - w.squaredNorm());
+  } else {
+    for (std::size_t i = components; i < p.singular_values.size(); ++i)
+      p.discarded_energy += p.singular_values[i] * p.singular_values[i];
+  }
+  p.mean.assign(d.mean().begin(), d.mean().end());
+  p.directions.resize(components * cols);
+  Eigen::Map<Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>(
+      p.directions.data(), Eigen::Index(components), Eigen::Index(cols)) = v.transpose();
+  p.coordinates.resize(rows * components);
+  Eigen::Map<Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>(
+      p.coordinates.data(), Eigen::Index(rows), Eigen::Index(components)) = w;
+  return p;
+}
+
+std::vector<double> reconstruct(const Pca& p) {
+  using RowMatD = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+  const Eigen::Index n = Eigen::Index(p.rows), d = Eigen::Index(p.cols),
+                     c = Eigen::Index(p.components);
+  std::vector<double> out(p.rows * p.cols);
+  Eigen::Map<RowMatD> r(out.data(), n, d);
+  r.noalias() = Eigen::Map<const RowMatD>(p.coordinates.data(), n, c) *
+                Eigen::Map<const RowMatD>(p.directions.data(), c, d);
+  r.rowwise() += Eigen::Map<const Eigen::RowVectorXd>(p.mean.data(), d);
+  return out;
+}
+
+std::vector<double> fit_coordinates(std::span<const float> x, std::size_t rows, std::size_t cols,
+                                    std::span<const float> mean, std::span<const float> basis,
+                                    std::size_t c) {
+  assert(x.size() == rows * cols && mean.size() == cols && basis.size() == c * cols);
+  using RowMatD = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+  const MatD bt = Eigen::Map<const RowMatF>(basis.data(), Eigen::Index(c), Eigen::Index(cols))
+                      .cast<double>()
+                      .transpose();  // cols x c
+  // The normal equations' matrix BBᵀ, pseudo-inverted once (rank-deficient bases too).
+  const MatD solve = (bt.transpose() * bt).completeOrthogonalDecomposition().pseudoInverse();
+  const Eigen::RowVectorXd m =
+      Eigen::Map<const Eigen::RowVectorXf>(mean.data(), Eigen::Index(cols)).cast<double>();
+  const Eigen::Map<const RowMatF> xs(x.data(), Eigen::Index(rows), Eigen::Index(cols));
+  std::vector<double> out(rows * c);
+  Eigen::Map<RowMatD> w(out.data(), Eigen::Index(rows), Eigen::Index(c));
+  const std::size_t step = std::max<std::size_t>(1, kBlockValues / std::max<std::size_t>(1, cols));
+  for (std::size_t r0 = 0; r0 < rows; r0 += step) {
+    const Eigen::Index n = Eigen::Index(std::min(step, rows - r0));
+    const MatD b = xs.middleRows(Eigen::Index(r0), n).cast<double>().rowwise() - m;
+    w.middleRows(Eigen::Index(r0), n).noalias() = (b * bt) * solve.transpose();
+  }
+  return out;
+}
+
+}  // namespace btfgmm::detail

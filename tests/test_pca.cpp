@@ -1,0 +1,434 @@
+// The PCA methods: the shared principal components (methods/pca.hpp), PCA BTF (Koudelka et
+// al. 2003), PCA RF (Sattler et al. 2003) and LPCA (Mueller et al. 2003).
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <string>
+#include <vector>
+
+#include "btfgmm/core/interpolation.hpp"
+#include "btfgmm/methods/pca_btf.hpp"
+#include "btfgmm/methods/pca_rf.hpp"
+#include "btfgmm/methods/registry.hpp"
+#include "btfgmm/synth/generate.hpp"
+#include "core/random.hpp"
+#include "methods/pca.hpp"
+#include "test_util.hpp"
+
+namespace btfgmm {
+namespace {
+
+// rows x cols values: a rank-`rank` matrix with decaying singular values, an offset per
+// column and a little noise, deterministic from the seed.
+std::vector<float> structured_matrix(std::size_t rows, std::size_t cols, std::size_t rank,
+                                     double noise, std::uint64_t seed) {
+  detail::SplitMix64 rng(seed);
+  std::vector<double> u(rows * rank), v(rank * cols), offset(cols);
+  for (double& x : u) x = rng.uniform(-1.0, 1.0);
+  for (double& x : v) x = rng.uniform(-1.0, 1.0);
+  for (double& x : offset) x = rng.uniform(0.0, 100.0);
+  std::vector<float> m(rows * cols);
+  for (std::size_t i = 0; i < rows; ++i)
+    for (std::size_t j = 0; j < cols; ++j) {
+      double s = offset[j] + noise * rng.uniform(-1.0, 1.0);
+      for (std::size_t k = 0; k < rank; ++k)
+        s += 40.0 / double(k + 1) * u[i * rank + k] * v[k * cols + j];
+      m[i * cols + j] = float(s);
+    }
+  return m;
+}
+
+double squared_error(const std::vector<float>& x, const std::vector<double>& r) {
+  double e = 0.0;
+  for (std::size_t i = 0; i < x.size(); ++i) e += (double(x[i]) - r[i]) * (double(x[i]) - r[i]);
+  return e;
+}
+
+double squared_norm(const std::vector<float>& x) {
+  double e = 0.0;
+  for (float v : x) e += double(v) * double(v);
+  return e;
+}
+
+// The largest |D Dᵀ - I| of the directions.
+double orthonormality_error(const detail::Pca& p) {
+  double worst = 0.0;
+  for (std::size_t a = 0; a < p.components; ++a)
+    for (std::size_t b = 0; b < p.components; ++b) {
+      double dot = 0.0;
+      for (std::size_t j = 0; j < p.cols; ++j)
+        dot += p.directions[a * p.cols + j] * p.directions[b * p.cols + j];
+      worst = std::max(worst, std::abs(dot - (a == b ? 1.0 : 0.0)));
+    }
+  return worst;
+}
+
+TEST(PcaCore, FullRankReproducesTheData) {
+  // Centred, the rank is at most rows - 1; without the mean, rows.
+  for (const auto& [rows, cols] : {std::pair<std::size_t, std::size_t>{12, 30}, {30, 12}}) {
+    const auto x = structured_matrix(rows, cols, 40, 1.0, 3);
+    detail::PcaSettings s;
+    const std::size_t full = std::min(rows - 1, cols);
+    const detail::Pca p = detail::principal_components(x, rows, cols, full, s);
+    EXPECT_LT(squared_error(x, detail::reconstruct(p)), 1e-18 * squared_norm(x) * double(x.size()))
+        << rows << " x " << cols;
+    EXPECT_LT(p.discarded_energy, 1e-9 * p.total_energy);
+    s.centre = false;
+    const detail::Pca q = detail::principal_components(x, rows, cols, std::min(rows, cols), s);
+    EXPECT_LT(squared_error(x, detail::reconstruct(q)), 1e-18 * squared_norm(x) * double(x.size()));
+    EXPECT_LT(orthonormality_error(p), 1e-12);
+    EXPECT_LT(orthonormality_error(q), 1e-12);
+  }
+}
+
+TEST(PcaCore, ErrorIsTheDiscardedEnergy) {
+  for (const auto& [rows, cols] : {std::pair<std::size_t, std::size_t>{20, 45}, {45, 20}}) {
+    const auto x = structured_matrix(rows, cols, 8, 2.0, 5);
+    for (std::size_t c : {1, 3, 7}) {
+      const detail::Pca p = detail::principal_components(x, rows, cols, c);
+      EXPECT_NEAR(squared_error(x, detail::reconstruct(p)), p.discarded_energy,
+                  1e-9 * p.total_energy);
+      double tail = 0.0;
+      for (std::size_t i = c; i < p.singular_values.size(); ++i)
+        tail += p.singular_values[i] * p.singular_values[i];
+      EXPECT_DOUBLE_EQ(tail, p.discarded_energy);
+      EXPECT_EQ(p.singular_values.size(), std::min(rows, cols));
+      EXPECT_FALSE(p.randomized);
+    }
+  }
+}
+
+TEST(PcaCore, RandomizedAgreesWithTheGramMatrix) {
+  const std::size_t rows = 150, cols = 120;
+  const auto x = structured_matrix(rows, cols, 6, 0.5, 7);
+  detail::PcaSettings s;
+  s.randomized_above = 50;
+  const detail::Pca r = detail::principal_components(x, rows, cols, 4, s);
+  const detail::Pca g = detail::principal_components(x, rows, cols, 4);
+  EXPECT_TRUE(r.randomized);
+  EXPECT_FALSE(g.randomized);
+  EXPECT_LT(orthonormality_error(r), 1e-12);
+  EXPECT_NEAR(r.discarded_energy, g.discarded_energy, 1e-8 * g.discarded_energy);
+  EXPECT_NEAR(squared_error(x, detail::reconstruct(r)), r.discarded_energy, 1e-9 * r.total_energy);
+  for (std::size_t i = 0; i < 4; ++i)
+    EXPECT_NEAR(r.singular_values[i], g.singular_values[i], 1e-9 * g.singular_values[0]);
+}
+
+TEST(PcaCore, MoreComponentsThanRowsCompleteTheBasis) {
+  const auto x = structured_matrix(5, 20, 5, 1.0, 9);
+  const detail::Pca p = detail::principal_components(x, 5, 20, 8);
+  EXPECT_EQ(p.components, 8u);
+  EXPECT_LT(orthonormality_error(p), 1e-12);
+  EXPECT_LT(squared_error(x, detail::reconstruct(p)), 1e-18 * squared_norm(x) * double(x.size()));
+}
+
+TEST(PcaCore, FitCoordinatesProjectOnAnOrthonormalBasis) {
+  const auto x = structured_matrix(30, 16, 6, 1.0, 11);
+  const detail::Pca p = detail::principal_components(x, 30, 16, 3);
+  const std::vector<float> mean(p.mean.begin(), p.mean.end()),
+      basis(p.directions.begin(), p.directions.end());
+  const auto w = detail::fit_coordinates(x, 30, 16, mean, basis, 3);
+  for (std::size_t i = 0; i < w.size(); ++i) EXPECT_NEAR(w[i], p.coordinates[i], 1e-4);
+  // A basis that is not orthonormal: the fit still minimises the error (the same span).
+  std::vector<float> skew = basis;
+  for (std::size_t j = 0; j < 16; ++j) skew[16 + j] += 0.5f * basis[j];
+  const auto ws = detail::fit_coordinates(x, 30, 16, mean, skew, 3);
+  std::vector<double> r(30 * 16);
+  for (std::size_t i = 0; i < 30; ++i)
+    for (std::size_t j = 0; j < 16; ++j) {
+      double s = mean[j];
+      for (std::size_t k = 0; k < 3; ++k) s += ws[i * 3 + k] * double(skew[k * 16 + j]);
+      r[i * 16 + j] = s;
+    }
+  EXPECT_NEAR(squared_error(x, r), p.discarded_energy, 1e-5 * p.total_energy);
+}
+
+// ---- the methods -------------------------------------------------------------------------
+
+// An 8 x 8 knit tile with 5 lights and 6 views: 30 images of 192 values, 64 texels of 90.
+const Btf& small_tile() {
+  static const Btf tile = [] {
+    GenerateConfig g;
+    g.material = "knit";
+    g.size = 8;
+    g.seed = 3;
+    g.lights = DirectionSet::rings({{0, 1}, {30, 4}});
+    g.views = DirectionSet::rings({{0, 1}, {45, 5}});
+    return generate(g);
+  }();
+  return tile;
+}
+
+// The paper's frame for Table 2: a 25 x 25 tile, 81 lights and 81 views.
+ModelFrame paper_frame() {
+  ModelFrame f;
+  f.lights = DirectionSet::ubo81();
+  f.views = DirectionSet::ubo81();
+  f.width = f.height = 25;
+  return f;
+}
+
+// Small settings of each method, and settings with as many components as the data's rank.
+MethodSettings small_settings(const std::string& method, FactorEncoding e) {
+  MethodSettings s;
+  s.components = method == "pca-btf" ? 4 : 2;
+  if (method == "lpca") s.clusters = 3;
+  s.encoding = e;
+  return s;
+}
+
+MethodSettings full_rank_settings(const std::string& method) {
+  MethodSettings s;
+  s.encoding = FactorEncoding::kF32;
+  if (method == "pca-btf") s.components = 29;  // 30 images
+  if (method == "pca-rf") s.components = 4;    // 5 lights per view
+  if (method == "lpca") {
+    s.clusters = 2;
+    s.components = 63;  // at least the texels of any cluster, less one
+  }
+  return s;
+}
+
+const std::vector<std::string>& methods() {
+  static const std::vector<std::string> m = {"pca-btf", "pca-rf"};
+  return m;
+}
+
+std::unique_ptr<Representation> fit(const std::string& method, const MethodSettings& s) {
+  return find_method(method).fit(small_tile(), s);
+}
+
+Btf decode_measured(const Representation& r) {
+  const ModelFrame& f = r.frame();
+  return r.decode(f.lights, f.views, f.width, f.height, 0.0);
+}
+
+double largest_difference(std::span<const float> a, std::span<const float> b) {
+  double worst = 0.0;
+  for (std::size_t i = 0; i < a.size(); ++i) worst = std::max(worst, double(std::abs(a[i] - b[i])));
+  return worst;
+}
+
+double psnr(std::span<const float> a, std::span<const float> b) {
+  double e = 0.0;
+  for (std::size_t i = 0; i < a.size(); ++i) e += double(a[i] - b[i]) * double(a[i] - b[i]);
+  return 20.0 * std::log10(255.0 / std::sqrt(e / double(a.size())));
+}
+
+TEST(PcaMethods, FullRankReproducesTheData) {
+  for (const std::string& m : methods()) {
+    const auto r = fit(m, full_rank_settings(m));
+    const Btf d = decode_measured(*r);
+    EXPECT_LT(largest_difference(d.data(), small_tile().data()), 2e-3) << m;
+  }
+}
+
+TEST(PcaMethods, FilesRoundTripBitExactly) {
+  for (const std::string& m : methods())
+    for (FactorEncoding e : {FactorEncoding::kF32, FactorEncoding::kF16, FactorEncoding::kQ8}) {
+      const auto r = fit(m, small_settings(m, e));
+      const auto bytes = representation_file_bytes(*r);
+      const auto back = read_representation(bytes, "round trip");
+      EXPECT_EQ(back->method(), m);
+      EXPECT_EQ(representation_file_bytes(*back), bytes) << m << " " << to_string(e);
+      EXPECT_EQ(back->size_text(), r->size_text());
+      EXPECT_EQ(back->parameter_count(), r->parameter_count());
+      const Btf a = decode_measured(*r), b = decode_measured(*back);
+      ASSERT_EQ(a.data().size(), b.data().size());
+      EXPECT_EQ(std::memcmp(a.data().data(), b.data().data(), a.data().size() * 4), 0)
+          << m << " " << to_string(e);
+    }
+}
+
+TEST(PcaMethods, TruncatedOrCorruptedFilesAreRefused) {
+  for (const std::string& m : methods())
+    for (FactorEncoding e : {FactorEncoding::kF32, FactorEncoding::kQ8}) {
+      const auto r = fit(m, small_settings(m, e));
+      const auto bytes = representation_file_bytes(*r);
+      const auto payload = r->payload();
+      const MethodInfo& info = find_method(m);
+      // Every prefix of the payload, read by the method itself (behind the file's CRC).
+      for (std::size_t n = 0; n < payload.size(); ++n)
+        EXPECT_THROW(info.read(std::span(payload).first(n), 0, "prefix"), Error) << m << " " << n;
+      for (std::size_t n = 0; n < bytes.size(); n += 7)
+        EXPECT_THROW(read_representation(std::span(bytes).first(n), "prefix"), Error) << n;
+      // Single bytes changed in the file (the CRC) and in the payload (the parser): refused,
+      // or read as some valid model, never a crash.
+      for (std::size_t i = 0; i < bytes.size(); i += 5) {
+        auto bad = bytes;
+        bad[i] ^= 0x5A;
+        EXPECT_THROW(read_representation(bad, "corrupt"), Error) << m << " byte " << i;
+      }
+      std::size_t refused = 0;
+      for (std::size_t i = 0; i < payload.size(); ++i) {
+        auto bad = payload;
+        bad[i] ^= 0xA5;
+        try {
+          (void)info.read(bad, 0, "corrupt");
+        } catch (const Error& err) {
+          EXPECT_EQ(err.kind(), Error::Kind::kFormat);
+          ++refused;
+        }
+      }
+      EXPECT_GT(refused, 0u);
+      EXPECT_THROW(info.read(payload, 1, "flags"), Error);
+    }
+}
+
+TEST(PcaMethods, PredictMatchesDecodeAndBlendsBetweenDirections) {
+  const Btf& tile = small_tile();
+  for (const std::string& m : methods()) {
+    const auto r = fit(m, small_settings(m, FactorEncoding::kF16));
+    const Btf d = decode_measured(*r);
+    std::vector<Query> q;
+    for (std::size_t l = 0; l < tile.lights().size(); ++l)
+      for (std::size_t v = 0; v < tile.views().size(); ++v)
+        q.push_back(
+            {double((l + v) % 8), double((2 * l + 1) % 8), tile.lights()[l], tile.views()[v]});
+    std::vector<float> rgb(q.size() * 3);
+    r->predict(q, rgb);
+    for (std::size_t i = 0; i < q.size(); ++i)
+      for (int c = 0; c < 3; ++c) {
+        const std::size_t l = i / tile.views().size(), v = i % tile.views().size();
+        EXPECT_NEAR(rgb[i * 3 + c], d.at(l, v, int(q[i].x), int(q[i].y), c), 1e-3) << m;
+      }
+    // An unmeasured light at a measured view: the barycentric blend of three measured lights.
+    const Direction light{17.0, 50.0};
+    const auto w = DirectionInterpolator(tile.lights()).weights(light);
+    const Query between{5.0, 3.0, light, tile.views()[2]};
+    float got[3];
+    r->predict(std::span(&between, 1), got);
+    for (int c = 0; c < 3; ++c) {
+      double blend = 0.0, lo = 1e30, hi = -1e30;
+      for (int a = 0; a < 3; ++a) {
+        const double v = d.at(w.index[a], 2, 5, 3, c);
+        blend += w.weight[a] * v;
+        if (w.weight[a] > 0.0) lo = std::min(lo, v), hi = std::max(hi, v);
+      }
+      EXPECT_NEAR(got[c], blend, 1e-3) << m;
+      EXPECT_GE(got[c], lo - 1e-3) << m;
+      EXPECT_LE(got[c], hi + 1e-3) << m;
+    }
+    // decode at that light equals predict at the pixel centres.
+    const Btf between_images =
+        r->decode(DirectionSet({light}), DirectionSet({tile.views()[2]}), 8, 8, 0.0);
+    for (int c = 0; c < 3; ++c) EXPECT_NEAR(between_images.at(0, 0, 5, 3, c), got[c], 1e-3) << m;
+  }
+}
+
+TEST(PcaMethods, QualityByEncoding) {
+  for (const std::string& m : methods()) {
+    double last = 1e9;
+    for (FactorEncoding e : {FactorEncoding::kF32, FactorEncoding::kF16, FactorEncoding::kQ8}) {
+      const auto r = fit(m, small_settings(m, e));
+      const double db = psnr(decode_measured(*r).data(), small_tile().data());
+      std::printf("  %s %s: PSNR %.3f dB\n", m.c_str(), std::string(to_string(e)).c_str(), db);
+      EXPECT_GT(db, 20.0) << m << " " << to_string(e);
+      EXPECT_LE(db, last + 0.05) << m << " " << to_string(e);
+      last = db;
+    }
+  }
+}
+
+TEST(PcaBtf, TableTwoRatio) {
+  const ModelFrame f = paper_frame();
+  EXPECT_EQ(pca_btf_parameter_count(f, 61), 62u * 1875u + 61u * 6561u);
+  EXPECT_NEAR(f.data_values() / double(pca_btf_parameter_count(f, 61)), 23.82, 0.005);
+}
+
+TEST(PcaBtf, LadderSpansTheRatios) {
+  const ModelFrame f = paper_frame();
+  const auto ladder = find_method("pca-btf").ladder(f);
+  ASSERT_GE(ladder.size(), 4u);
+  for (std::size_t i = 1; i < ladder.size(); ++i)
+    EXPECT_GT(ladder[i].components, ladder[i - 1].components);
+  const auto ratio = [&](const MethodSettings& s) {
+    return f.data_values() / double(pca_btf_parameter_count(f, s.components));
+  };
+  EXPECT_NEAR(ratio(ladder.front()), 500.0, 100.0);
+  EXPECT_NEAR(ratio(ladder.back()), 5.0, 0.5);
+}
+
+TEST(PcaBtf, BadSettingsNameTheOption) {
+  MethodSettings s;
+  s.components = 30;
+  EXPECT_EQ(test::error_of([&] { fit("pca-btf", s); }),
+            "--components 30: pca-btf takes 1..29 for this tile of 30 images");
+  s.components = 4;
+  s.clusters = 2;
+  EXPECT_NE(test::error_of([&] { fit("pca-btf", s); }).find("--clusters 2"), std::string::npos);
+}
+
+TEST(PcaBtf, FactorsAreThePcaOfTheImages) {
+  MethodSettings s = small_settings("pca-btf", FactorEncoding::kF32);
+  const auto r = fit("pca-btf", s);
+  const auto& p = dynamic_cast<const PcaBtf&>(*r);
+  EXPECT_EQ(p.components(), 4u);
+  EXPECT_EQ(p.size_text(), "c = 4");
+  EXPECT_EQ(p.parameter_count(), 5u * 192u + 4u * 30u);
+  // The mean image is the images' mean; the eigen-images are orthonormal.
+  const Btf& tile = small_tile();
+  for (std::size_t j = 0; j < 192; j += 17) {
+    double mean = 0.0;
+    for (std::size_t i = 0; i < 30; ++i) mean += tile.data()[i * 192 + j];
+    EXPECT_NEAR(p.mean_image()[j], mean / 30.0, 1e-3);
+  }
+  for (std::size_t a = 0; a < 4; ++a)
+    for (std::size_t b = 0; b < 4; ++b) {
+      double dot = 0.0;
+      for (std::size_t j = 0; j < 192; ++j)
+        dot += p.eigen_images()[a * 192 + j] * p.eigen_images()[b * 192 + j];
+      EXPECT_NEAR(dot, a == b ? 1.0 : 0.0, 1e-5);
+    }
+}
+
+TEST(PcaRf, TableTwoRatio) {
+  const ModelFrame f = paper_frame();
+  EXPECT_EQ(pca_rf_parameter_count(f, 6), 81u * (7u * 1875u + 6u * 81u));
+  EXPECT_NEAR(f.data_values() / double(pca_rf_parameter_count(f, 6)), 11.16, 0.005);
+}
+
+TEST(PcaRf, LadderSpansWhatAPerViewPcaReaches) {
+  const ModelFrame f = paper_frame();
+  const auto ladder = find_method("pca-rf").ladder(f);
+  ASSERT_GE(ladder.size(), 3u);
+  const auto ratio = [&](const MethodSettings& s) {
+    return f.data_values() / double(pca_rf_parameter_count(f, s.components));
+  };
+  EXPECT_EQ(ladder.front().components, 1u);  // 1:40, the most a per-view PCA compresses
+  EXPECT_NEAR(ratio(ladder.front()), 40.0, 1.0);
+  EXPECT_NEAR(ratio(ladder.back()), 5.0, 0.5);
+}
+
+TEST(PcaRf, BadSettingsNameTheOption) {
+  MethodSettings s;
+  s.components = 5;
+  EXPECT_EQ(test::error_of([&] { fit("pca-rf", s); }),
+            "--components 5: pca-rf takes 1..4 for this tile of 5 lights a view");
+  s.components = 2;
+  s.clusters = 3;
+  EXPECT_NE(test::error_of([&] { fit("pca-rf", s); }).find("--clusters 3"), std::string::npos);
+}
+
+TEST(PcaRf, EachViewIsItsOwnPca) {
+  const auto r = fit("pca-rf", full_rank_settings("pca-rf"));
+  const auto& p = dynamic_cast<const PcaRf&>(*r);
+  EXPECT_EQ(p.size_text(), "c = 4");
+  EXPECT_EQ(p.parameter_count(), 6u * (5u * 192u + 4u * 5u));
+  // With 4 of a view's 5 images' 4 centred dimensions, every view is reproduced.
+  const Btf d = decode_measured(p);
+  EXPECT_LT(largest_difference(d.data(), small_tile().data()), 2e-3);
+  // Each view's mean image is the mean of its light images.
+  const Btf& tile = small_tile();
+  for (std::size_t v = 0; v < 6; ++v)
+    for (std::size_t j = 0; j < 192; j += 23) {
+      double mean = 0.0;
+      for (std::size_t l = 0; l < 5; ++l) mean += tile.image(l, v)[j];
+      EXPECT_NEAR(p.mean_images()[v * 192 + j], mean / 5.0, 1e-3);
+    }
+}
+
+}  // namespace
+}  // namespace btfgmm
