@@ -181,7 +181,8 @@ void bench_pca(const btfgmm::Btf& tile, const Options& o) {
       "numpy %s linalg.svd (%s, full_matrices=False): %.3f s; the optimum RMSE of %zu "
       "components: %.4f levels\n",
       np.version.c_str(), o.dtype.c_str(), np.seconds, o.components, np.optimum_rmse);
-  if (pca) std::printf("numpy / btfgmm: %.1fx\n", np.seconds / ours);
+  if (pca)
+    std::printf("numpy's time / btfgmm's: %.1fx (above 1: btfgmm faster)\n", np.seconds / ours);
   std::printf("\n");
 }
 

@@ -13,6 +13,7 @@
 #include "btfgmm/core/text.hpp"
 #include "btfgmm/io/files.hpp"
 #include "btfgmm/measure/metrics.hpp"
+#include "btfgmm/measure/sweep.hpp"
 #include "btfgmm/model/model.hpp"
 #include "btfgmm/model/model_file.hpp"
 #include "btfgmm/report/report.hpp"
@@ -207,14 +208,21 @@ void run_compare(const CompareOptions& o) {
       print_comparison(results[i]);
     }
     if (results.size() > 1) {
-      fmt::print("\n{:<36} {:<8} {:<14} {:>9} {:>8} {:>7} {:>10} {:>10} {:>10}\n", "model",
-                 "method", "size", "RMSE", "PSNR dB", "SSIM", "C.R. paper", "C.R. file", "file");
-      for (const auto& c : results)
-        fmt::print("{:<36} {:<8} {:<14} {:>9.4g} {:>8} {:>7.4f} {:>10} {:>10} {:>10}\n", c.name,
-                   c.model->method(), c.model->size_text(), c.quality.rmse, db(c.quality.psnr_db),
-                   c.quality.ssim, fmt::format("1:{:.1f}", c.model->paper_ratio()),
-                   fmt::format("1:{:.1f}", c.model->file_ratio(c.file_bytes)),
-                   human_bytes(double(c.file_bytes)));
+      // The models side by side, those on the Pareto front of PSNR against the file's
+      // compression ratio marked.
+      const std::vector<bool> front = pareto_front(results);
+      fmt::print("\n{:<36} {:<8} {:<14} {:>9} {:>8} {:>7} {:>10} {:>10} {:>10} {:>8}  {}\n",
+                 "model", "method", "size", "RMSE", "PSNR dB", "SSIM", "C.R. paper", "C.R. file",
+                 "file", "decode s", "Pareto");
+      for (std::size_t k = 0; k < results.size(); ++k) {
+        const ModelComparison& c = results[k];
+        fmt::print(
+            "{:<36} {:<8} {:<14} {:>9.4g} {:>8} {:>7.4f} {:>10} {:>10} {:>10} {:>8.3f}  {}\n",
+            c.name, c.model->method(), c.model->size_text(), c.quality.rmse, db(c.quality.psnr_db),
+            c.quality.ssim, fmt::format("1:{:.1f}", c.model->paper_ratio()),
+            fmt::format("1:{:.1f}", c.model->file_ratio(c.file_bytes)),
+            human_bytes(double(c.file_bytes)), c.decode_seconds, front[k] ? "*" : "");
+      }
     }
   }
   if (!o.report.empty()) {

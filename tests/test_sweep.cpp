@@ -125,7 +125,6 @@ TEST(Sweep, WritesModelFilesThatLoadAsTheModelsMeasured) {
   fs::remove_all(dir);
   SweepRequest r = gm_request();
   r.ladders["gm"].pop_back();
-  r.encoding = FactorEncoding::kF32;
   r.model_folder = dir / "models";
   const Btf tile = tiny_tile();
   const SweepOutcome s = run_sweep(tile, r);
@@ -134,8 +133,12 @@ TEST(Sweep, WritesModelFilesThatLoadAsTheModelsMeasured) {
     const fs::path file = r.model_folder / (c.name + ".btfgmm");
     ASSERT_TRUE(fs::exists(file)) << file;
     EXPECT_EQ(fs::file_size(file), c.file_bytes);
-    EXPECT_EQ(representation_file_bytes(*load_representation(file)),
-              representation_file_bytes(*c.model));
+    std::shared_ptr<const Representation> loaded = load_representation(file);
+    EXPECT_EQ(representation_file_bytes(*loaded), representation_file_bytes(*c.model));
+    // The sweep measures what the file holds: `compare` of the file gives the same numbers.
+    const ModelComparison again = compare_model(tile, loaded, file.string(), c.file_bytes);
+    EXPECT_EQ(again.quality.rmse, c.quality.rmse);
+    EXPECT_EQ(again.quality.ssim, c.quality.ssim);
   }
   fs::remove_all(dir);
 }
@@ -226,6 +229,39 @@ TEST(Sweep, RateDistortionChartHasALogAxisAndACurvePerMethod) {
       EXPECT_LE(x, c.width - 14.0);
     }
   }
+}
+
+TEST(Sweep, ReportOfSeveralMethodsHasACurveEachAndTheirImages) {
+  SweepRequest r;
+  r.methods = {"gm", "pca-btf"};
+  r.ladders["gm"] = {components(2), components(4)};
+  r.ladders["pca-btf"] = {components(1), components(3)};
+  r.iterations = 2;
+  const SweepOutcome s = run_sweep(tiny_tile(), r);
+  ASSERT_EQ(s.models.size(), 4u);
+  EXPECT_EQ(s.models[2].name, "pca-btf-c1");
+  const fs::path dir =
+      fs::temp_directory_path() / ("btfgmm_sweep_report_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  write_report(dir, "tiny", s.models);  // as `compare` writes it
+  const std::string html = [&] {
+    std::ifstream in(dir / "index.html");
+    return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  }();
+  const std::size_t at = html.find("data-x-scale=\"log\"");
+  ASSERT_NE(at, std::string::npos);
+  const std::string chart = html.substr(at, html.find("</svg>", at) - at);
+  EXPECT_EQ(count_of(chart, "<polyline"), 3u);  // the front, gm, pca-btf
+  // The Pareto column marks as many models as pareto_front.
+  std::size_t on_front = 0;
+  for (bool b : s.pareto) on_front += b;
+  EXPECT_EQ(count_of(html, "&#9733;</td>"), on_front);
+  // The frontal image: the original and one model per method.
+  EXPECT_NE(html.find("One image decoded by each method"), std::string::npos);
+  EXPECT_TRUE(fs::exists(dir / "methods_original.png"));
+  EXPECT_TRUE(fs::exists(dir / "methods_2.png"));
+  EXPECT_FALSE(fs::exists(dir / "methods_3.png"));
+  fs::remove_all(dir);
 }
 
 // ---- btfgmm sweep ------------------------------------------------------------------------

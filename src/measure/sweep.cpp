@@ -111,7 +111,8 @@ class Reporter {
   Clock::time_point start_ = Clock::now();
 };
 
-// Fits one setting, counts its file bytes, writes the file if asked, and measures it.
+// Fits one setting, counts its file bytes, writes the file if asked, and measures the model
+// read back from those bytes.
 ModelComparison fit_and_measure(const Btf& tile, const SweepRequest& r, Setting& s,
                                 std::size_t index, const Reporter& report,
                                 std::set<std::string>& names) {
@@ -131,6 +132,8 @@ ModelComparison fit_and_measure(const Btf& tile, const SweepRequest& r, Setting&
   const std::string name = model_name(*model, names);
   if (!r.model_folder.empty())
     write_file_atomically(r.model_folder / (name + ".btfgmm"), bytes, "model file");
+  // Measured as its file holds it (factors in the file's precision), as `compare` would.
+  model = read_representation(bytes, name);
   ModelComparison c = compare_model(tile, std::move(model), name, bytes.size(), r.compare);
   c.fit_seconds = fit_seconds;
   return c;

@@ -24,7 +24,7 @@ std::vector<const ModelComparison*> mixtures_by_m(std::span<const ModelCompariso
 
 Chart psnr_against_components_chart(std::span<const ModelComparison> models) {
   Chart c;
-  c.title = "Gaussian mixtures: PSNR against the number of components M";
+  c.title = "Gaussian mixtures: PSNR against M";
   c.x_label = "components M";
   c.x_integer = true;
   c.y_label = "PSNR (dB)";

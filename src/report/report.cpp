@@ -73,7 +73,7 @@ img{image-rendering:pixelated;display:block;outline:1px solid #d1d5db}
 figcaption{font-size:12px;color:#374151;margin-top:2px}figcaption b{color:#111827}
 .maps{display:flex;flex-direction:column;gap:8px;flex:0 0 auto}
 .curves{display:flex;gap:14px;flex-wrap:wrap}
-.note{color:#6b7280;font-size:12px;margin:6px 0 0}
+.note{color:#6b7280;font-size:12px;margin:6px 0 0}.wide{overflow-x:auto}
 code{font-size:12px;background:#f3f4f6;padding:0 3px;border-radius:3px}
 .notes li{margin:2px 0;font-size:13px}
 </style></head><body><main>
@@ -191,7 +191,8 @@ std::string skipped_list(std::span<const SkippedSetting> skipped) {
 
 std::string models_table(std::span<const ModelComparison> models, const ReportOptions& o) {
   std::string h =
-      "<section><h2>Models</h2><table><tr><th>model</th><th>method</th><th>size</th><th>tile"
+      "<section><h2>Models</h2><div "
+      "class=\"wide\"><table><tr><th>model</th><th>method</th><th>size</th><th>tile"
       "</th><th>values stored</th><th>RMSE</th><th>PSNR dB</th><th>SSIM</th><th>worst image PSNR "
       "(light; view)</th>"
       "<th>C.R. paper</th><th>C.R. file</th><th>file</th><th>fit time</th><th>decode</th>"
@@ -199,7 +200,7 @@ std::string models_table(std::span<const ModelComparison> models, const ReportOp
   const std::vector<bool> front = pareto_front(models);
   for (std::size_t k = 0; k < models.size(); ++k) h += model_row(models[k], front[k]);
   h += mean_brdf_rows(models);
-  h += "</table><p class=\"note\">The paper (Fig. 3, M = 600, 81 &times; 81 directions): "
+  h += "</table></div><p class=\"note\">The paper (Fig. 3, M = 600, 81 &times; 81 directions): "
        "corduroy 36&times;46 1:518, RMSE 15 / PSNR 24.8 dB / SSIM 0.81; knitted wool 25&times;25 "
        "1:196, 12 / 26.5 / 0.85; aluminium profile 21&times;26 1:171, 7.3 / 30.9 / 0.90. "
        "&ldquo;Mean BRDF alone&rdquo;: every pixel its image's mean colour, the model without "

@@ -70,8 +70,9 @@ struct SkippedSetting {
 
 struct SweepOutcome {
   // Method by method in the request's order, each in its ladder's order. Each with
-  // fit_seconds, file_bytes (the true size of its model file), decode_seconds and its quality;
-  // named "<method>-<size>" (e.g. "gm-M30", "lpca-k8-c4").
+  // fit_seconds, file_bytes (the true size of its model file), decode_seconds and its quality,
+  // measured on the model as read back from its file's bytes (what `compare` of the file
+  // gives); named "<method>-<size>" (e.g. "gm-M30", "lpca-k8-c4").
   std::vector<ModelComparison> models;
   std::vector<std::string> settings;  // models[i]'s setting (settings_text)
   std::vector<bool> pareto;           // models[i] is on the Pareto front (pareto_front)
