@@ -47,31 +47,39 @@ Rendering compose(const SurfaceBuffer& s, std::span<const float> point_rgb,
   return r;
 }
 
-Rendering render(const SurfaceBuffer& surface, const ModelEvaluator& model,
-                 const RenderSettings& settings, SampleFormat format) {
+namespace {
+
+// Every lit point through `evaluate` (the evaluator's colours), then composed.
+template <class Evaluate>
+Rendering render_with(const SurfaceBuffer& surface, const RenderSettings& settings,
+                      SampleFormat format, Evaluate evaluate) {
   std::vector<float> rgb(surface.points.size() * 3);
-  const EvaluationStats st = model.evaluate(surface.points, rgb, surface.block_start);
+  const EvaluationStats st = evaluate(rgb);
   Rendering r = compose(surface, rgb, settings, format);
   r.stats = st;
   return r;
+}
+
+}  // namespace
+
+Rendering render(const SurfaceBuffer& surface, const ModelEvaluator& model,
+                 const RenderSettings& settings, SampleFormat format) {
+  return render_with(surface, settings, format, [&](std::span<float> rgb) {
+    return model.evaluate(surface.points, rgb, surface.block_start);
+  });
 }
 
 Rendering render(const SurfaceBuffer& surface, const RepresentationEvaluator& model,
                  const RenderSettings& settings, SampleFormat format) {
-  std::vector<float> rgb(surface.points.size() * 3);
-  const EvaluationStats st = model.evaluate(surface.points, rgb, surface.block_start);
-  Rendering r = compose(surface, rgb, settings, format);
-  r.stats = st;
-  return r;
+  return render_with(surface, settings, format, [&](std::span<float> rgb) {
+    return model.evaluate(surface.points, rgb, surface.block_start);
+  });
 }
 
 Rendering render(const SurfaceBuffer& surface, const DataEvaluator& data,
                  const RenderSettings& settings, SampleFormat format) {
-  std::vector<float> rgb(surface.points.size() * 3);
-  const EvaluationStats st = data.evaluate(surface.points, rgb);
-  Rendering r = compose(surface, rgb, settings, format);
-  r.stats = st;
-  return r;
+  return render_with(surface, settings, format,
+                     [&](std::span<float> rgb) { return data.evaluate(surface.points, rgb); });
 }
 
 }  // namespace btfgmm
