@@ -47,10 +47,13 @@ inline void check_direction(const Direction& d, const char* what) {
 // A pixel coordinate modulo the tile's side (the tile repeats); one already inside is
 // returned as is.
 inline double tile_coordinate(double x, int period) {
-  if (x >= 0.0 && x < double(period)) return x;
-  double r = std::fmod(x, double(period));
-  if (r < 0) r += period;
-  return r >= period ? 0.0 : r;
+  return wrap_into_period(x, double(period));
+}
+
+// The periods of the nine variables of a model: x and y wrap around its tile
+// (mixture_internal.hpp, "The tile wraps"), whichever file it was read from.
+inline Periods model_periods(const BtfModel& model) {
+  return variable_periods({double(model.width), double(model.height)});
 }
 
 // The onion-slice angles of a direction in model units: inputs n and n + 1 of x_I (n = 2 for
@@ -81,28 +84,51 @@ inline std::vector<double> log_weight_bases(const ProductMixture& mix) {
 }
 
 // Eq. (10): the term of input n in the exponent, log f_n(x_n | mu_mn, sigma_mn) less the
-// constant in log_weight_base: -(x_n - mu_mn)^2 / (2 sigma^2_mn).
-inline double log_marginal_term(double x, double mu, double var) {
-  return gauss_exponent(x, mu, var);  // Eq. (2)'s term of one variable
+// constant in log_weight_base: -(x_n - mu_mn)^2 / (2 sigma^2_mn), x_n - mu_mn in the minimum
+// image for x and y (`period` W or H; 0 for the angles).
+inline double log_marginal_term(double x, double mu, double var, double period) {
+  return gauss_exponent(x, mu, var, period);  // Eq. (2)'s term of one variable
 }
 
 // The same term in log2 units as a square, for the float kernels:
 // log2(e) (x - mu)^2 / (2 sigma^2) = (x s - s mu)^2 with s^2 = log2(e) / (2 sigma^2).
+// A wrapped input (period P > 0) is given to the kernels as the fraction of its period
+// u = x / P in [0, 1), with the scale S = s P and the offset s mu (mu wrapped into [0, P)):
+// e = u S - s mu then lies in (-S, S), and the root of the minimum image's square is
+// wrapped_root(e, S) = min(|e|, S - |e|). `mean` and `scale2` are in the units the kernel's
+// input has (for the bounds): mu / P and S^2 for a wrapped input.
 struct Log2MarginalTerm {
-  double scale2 = 0.0, scale = 0.0, offset = 0.0;  // s^2, s, s mu
+  double scale2 = 0.0, scale = 0.0, offset = 0.0;  // s^2, s, s mu (S^2, S, s mu)
+  double mean = 0.0;                               // mu (mu / P)
+  bool wrapped = false;
 };
-inline Log2MarginalTerm log2_marginal_term(double mu, double var) {
+inline Log2MarginalTerm log2_marginal_term(double mu, double var, double period) {
   const double s2 = std::numbers::log2e / (2.0 * var);
   const double s = std::sqrt(s2);
-  return {s2, s, s * mu};
+  if (!(period > 0.0)) return {s2, s, s * mu, mu, false};
+  const double m = wrap_into_period(mu, period);
+  return {s2 * period * period, s * period, s * m, m / period, true};
+}
+
+// The root of the minimum image's square in the float kernels' units (Log2MarginalTerm): for
+// e = u S - s mu in (-S, S), min(|e|, S - |e|), whose square is (s * wrapped_difference(x -
+// mu, P))^2. Three instructions more than the plain term (an and, a subtraction, a min).
+// T: float or a vector of floats.
+template <class T>
+[[gnu::always_inline]] inline T wrapped_root(T e, float period_scale) {
+  const T a = e < T{} ? -e : e;
+  const T b = period_scale - a;
+  return a < b ? a : b;
 }
 
 // Eq. (9)'s exponent t_m at x_I: the base plus the six terms of Eq. (10).
 inline double log_weight(double base, const std::array<double, kVariables>& mean,
-                         const std::array<double, kVariables>& var, const double x[kInputs]) {
+                         const std::array<double, kVariables>& var, const double x[kInputs],
+                         const Periods& periods) {
   double t = base;
   for (int n = 0; n < kInputs; ++n)
-    t += log_marginal_term(x[n], mean[std::size_t(n)], var[std::size_t(n)]);
+    t +=
+        log_marginal_term(x[n], mean[std::size_t(n)], var[std::size_t(n)], periods[std::size_t(n)]);
   return t;
 }
 

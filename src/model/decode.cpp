@@ -160,7 +160,8 @@ void check_decode(const BtfModel& model, const DirectionSet& lights, const Direc
 
 // Eq. (9)'s exponent on the grid splits into parts that depend on one input each:
 //   t_m(x, y, l, v) = base_m + X_m(x) + Y_m(y) + L_m(l) + V_m(v)
-// (log_weight_base and the terms of Eq. 10), one table each, and the colour means of Eq. (8).
+// (log_weight_base and the terms of Eq. 10, X and Y wrapped around the tile), one table each,
+// and the colour means of Eq. (8).
 // Table column k holds component order[k]; padding columns have base = -1e30.
 struct GridTables {
   std::size_t stride = 0, chunks = 0;  // columns (M rounded up to 16), vectors of 16
@@ -176,9 +177,11 @@ GridTables grid_tables(const BtfModel& model, const DirectionSet& lights,
   const auto& u = model.scaling.unit;
   const std::vector<std::size_t> order = detail::kd_order(mix, {0, 1}, 16);
   const std::vector<double> base = detail::log_weight_bases(mix);
+  const detail::Periods periods = detail::model_periods(model);
   auto g = [&](std::size_t k, int n, double x) {
     const std::size_t m = order[k];
-    return detail::log_marginal_term(x, mix.mean[m][std::size_t(n)], mix.var[m][std::size_t(n)]);
+    return detail::log_marginal_term(x, mix.mean[m][std::size_t(n)], mix.var[m][std::size_t(n)],
+                                     periods[std::size_t(n)]);
   };
   GridTables t;
   const std::size_t st = t.stride = (m_count + 15) / 16 * 16;

@@ -52,9 +52,15 @@ std::vector<std::size_t> block_order(const ProductMixture& mix) {
   return detail::kd_order(mix, {6, 7, 8}, kLanes);
 }
 
+// The periods of the nine variables on the sample grid: x and y wrap around the tile
+// (mixture_internal.hpp, "The tile wraps").
+detail::Periods tile_periods(const SampleSet& s) {
+  return detail::variable_periods({double(s.width), double(s.height)});
+}
+
 // The tables of log w_m F(x | m), Eq. (2), in parts: S (log w_m, the normalisation and the
-// x, y terms) per pixel, L (alpha_i, beta_i) per light, V (alpha_v, beta_v) per view, and the
-// colour means and -1/(2 sigma^2) for the colour terms.
+// x, y terms, wrapped) per pixel, L (alpha_i, beta_i) per light, V (alpha_v, beta_v) per view, and
+// the colour means and -1/(2 sigma^2) for the colour terms.
 void tabulate_densities(Tables& t, const SampleSet& s, const ProductMixture& mix) {
   const std::size_t m_count = t.m, st = t.stride;
   t.s.assign(s.pixels() * st, kAbsent);
@@ -71,9 +77,10 @@ void tabulate_densities(Tables& t, const SampleSet& s, const ProductMixture& mix
       t.neg_half_inv_var[c * st + k] = float(-0.5 / mix.var[m][6 + c]);
     }
   }
+  const detail::Periods periods = tile_periods(s);
   auto gauss = [&](std::size_t k, int n, double x) {
     const std::size_t m = t.order[k];
-    return detail::gauss_exponent(x, mix.mean[m][n], mix.var[m][n]);
+    return detail::gauss_exponent(x, mix.mean[m][n], mix.var[m][n], periods[std::size_t(n)]);
   };
   for (std::size_t p = 0; p < s.pixels(); ++p) {
     const double x = double(p % std::size_t(s.width)), y = double(p / std::size_t(s.width));
@@ -299,8 +306,8 @@ double e_pass(const SampleSet& s, const Tables& t, const std::vector<std::uint8_
 
 // The sufficient statistics of the M-step (mixture_internal.hpp) from the E pass's: the
 // chunks reduced in order, then per component sum q, and the sums of q (x - mu_old),
-// q (x - mu_old)^2 for each variable (x, y from the pixels, the angles from the lights and
-// views, the colours as accumulated).
+// q (x - mu_old)^2 for each variable (x, y from the pixels, their minimum images; the angles
+// from the lights and views; the colours as accumulated).
 detail::SufficientStatistics sufficient_statistics(const SampleSet& s, const Tables& t,
                                                    const ProductMixture& mix,
                                                    const GridStatistics& g) {
@@ -313,11 +320,12 @@ detail::SufficientStatistics sufficient_statistics(const SampleSet& s, const Tab
     for (std::size_t k = 0; k < sum.c2.size(); ++k) sum.c2[k] += c.c2[k];
   }
   detail::SufficientStatistics ss(t.m);
+  const detail::Periods periods = tile_periods(s);
   for (std::size_t k = 0; k < t.m; ++k) {
     const std::size_t m = t.order[k];  // table column k holds component m
     const auto& mu = mix.mean[m];
     auto add = [&](int n, double q, double x) {
-      const double d = x - mu[n];
+      const double d = detail::wrapped_difference(x - mu[n], periods[std::size_t(n)]);
       ss.s1[m][n] += q * d;
       ss.s2[m][n] += q * d * d;
     };
@@ -366,8 +374,9 @@ EmResult fit_em(const SampleSet& s, ProductMixture& mix, const EmConfig& config,
     GridStatistics g(s, t.stride);
     const double ll = e_pass(s, t, order, threads, &g);  // Eq. (3)-(4)
     // M-step, Eq. (5)-(7).
-    result.dropped += detail::m_step(mix, sufficient_statistics(s, t, mix, g), double(s.size()),
-                                     config.variance_floor, config.min_component_samples);
+    result.dropped +=
+        detail::m_step(mix, sufficient_statistics(s, t, mix, g), double(s.size()),
+                       config.variance_floor, config.min_component_samples, tile_periods(s));
     // Stop test: the gain of L (record_iteration), or a stop from outside (the state so far,
     // to resume from).
     detail::record_iteration(result, ll, it, config, mix.size(), t0, progress);

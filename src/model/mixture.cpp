@@ -38,7 +38,7 @@ void check_em_input(std::size_t samples, const ProductMixture& mix, const EmConf
 }
 
 std::size_t m_step(ProductMixture& mix, const SufficientStatistics& stats, double n, double floor,
-                   double min_samples) {
+                   double min_samples, const Periods& periods) {
   const auto& s0 = stats.s0;
   const auto& s1 = stats.s1;
   const auto& s2 = stats.s2;
@@ -47,9 +47,9 @@ std::size_t m_step(ProductMixture& mix, const SufficientStatistics& stats, doubl
     if (!(s0[m] >= min_samples)) continue;  // vanished: "suppressed by EM"
     std::array<double, kVariables> mean{}, var{};
     for (int v = 0; v < kVariables; ++v) {
-      const double shift = s1[m][v] / s0[m];
-      mean[v] = mix.mean[m][v] + shift;                            // Eq. (6)
-      var[v] = std::max(s2[m][v] / s0[m] - shift * shift, floor);  // Eq. (7), shifted
+      const double shift = s1[m][v] / s0[m], period = periods[std::size_t(v)];
+      mean[v] = wrap_into_period(mix.mean[m][v] + shift, period);                  // Eq. (6)
+      var[v] = bounded_variance(s2[m][v] / s0[m] - shift * shift, floor, period);  // Eq. (7)
     }
     next.weight.push_back(s0[m] / n);  // Eq. (5)
     next.mean.push_back(mean);

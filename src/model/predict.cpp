@@ -44,17 +44,18 @@ void query_inputs(const BtfModel& model, const Query& q, double x[kInputs]) {
   x[5] = v.beta;
 }
 
-// One query: Eq. (9)-(10)'s exponents t (scratch of M), Eq. (9)'s weights, Eq. (8)'s colour and
-// Eq. (11)'s prediction.
+// One query: Eq. (9)-(10)'s exponents t (scratch of M; the Gaussians of x and y wrap around
+// the tile), Eq. (9)'s weights, Eq. (8)'s colour and Eq. (11)'s prediction.
 std::array<float, 3> predict_one(const BtfModel& model, const std::vector<double>& base,
                                  const detail::MeanBrdfInterpolator& mean, const Query& q,
                                  std::vector<double>& t) {
   const ProductMixture& mix = model.mixture;
   const auto& u = model.scaling.unit;
+  const detail::Periods periods = detail::model_periods(model);
   double x[kInputs];
   query_inputs(model, q, x);
   for (std::size_t m = 0; m < mix.size(); ++m)
-    t[m] = detail::log_weight(base[m], mix.mean[m], mix.var[m], x);
+    t[m] = detail::log_weight(base[m], mix.mean[m], mix.var[m], x, periods);
   detail::conditional_weights(t);
   detail::ConditionalColour<double> colour;
   for (std::size_t m = 0; m < mix.size(); ++m)

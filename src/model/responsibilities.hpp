@@ -54,11 +54,14 @@ inline double log_density_constant(const ProductMixture& mix, std::size_t m) {
   return b;
 }
 
-// log w_m F(x | m), Eq. (2) in the log domain, of the sample x (9 values).
-inline double log_weighted_density(const ProductMixture& mix, std::size_t m, const double* x) {
+// log w_m F(x | m), Eq. (2) in the log domain, of the sample x (9 values; x and y wrap with
+// their periods, mixture_internal.hpp).
+inline double log_weighted_density(const ProductMixture& mix, std::size_t m, const double* x,
+                                   const Periods& periods) {
   double l = log_weight_and_norm(mix.weight[m]);
   for (int n = 0; n < kVariables; ++n)
-    l += gauss_exponent(x[n], mix.mean[m][n], mix.var[m][n]) - 0.5 * std::log(mix.var[m][n]);
+    l += gauss_exponent(x[n], mix.mean[m][n], mix.var[m][n], periods[std::size_t(n)]) -
+         0.5 * std::log(mix.var[m][n]);
   return l;
 }
 

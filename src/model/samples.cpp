@@ -12,6 +12,7 @@
 #include "btfgmm/model/model.hpp"
 #include "btfgmm/model/samples.hpp"
 #include "core/random.hpp"
+#include "model/mixture_internal.hpp"
 
 namespace btfgmm {
 
@@ -150,10 +151,13 @@ ProductMixture initial_mixture(const SampleSet& s, std::size_t components, std::
   // component as wide as the whole set (the textbook choice) gave a worse predictor for the
   // same likelihood on generated tiles (RMSE 19.1 against 17.5 levels, 16 x 16 corduroy,
   // M = 100, 8 iterations).
+  // x and y within the ceiling of their wrapped Gaussians (mixture_internal.hpp).
   const double shrink = std::cbrt(double(components));
+  const detail::Periods periods = detail::variable_periods({double(s.width), double(s.height)});
   std::array<double, kVariables> var{};
   for (int v = 0; v < kVariables; ++v)
-    var[v] = std::max((s2[v] / count - (s1[v] / count) * (s1[v] / count)) / shrink, kVarianceFloor);
+    var[v] = detail::bounded_variance((s2[v] / count - (s1[v] / count) * (s1[v] / count)) / shrink,
+                                      kVarianceFloor, periods[std::size_t(v)]);
 
   ProductMixture mix;
   mix.resize(components);

@@ -11,6 +11,45 @@
 
 namespace btfgmm::detail {
 
+namespace {
+
+// The distance of x from mu on the circle of circumference 1 (the minimum image), for x, mu
+// in [0, 1].
+inline float circle_distance(float x, float mu) {
+  const float a = std::abs(x - mu);
+  return std::min(a, 1.0f - a);
+}
+
+// The bounds' terms of a wrapped input (x or y as a fraction of the tile, the term in the
+// minimum image): over the intervals [a0, b0], [a1, b1] (in [0, 1]), the nearest and the
+// farthest distance on the circle from each component's mean. The nearest is 0 inside an
+// interval, else the nearer end's; the farthest is 1/2 where the mean's antipode lies inside
+// an interval, else the farther end's (the distance from mu grows along an arc up to the
+// antipode).
+void bound_wrapped_input(const float* __restrict mean, const float* __restrict sc2, float a0,
+                         float b0, float a1, float b1, std::size_t M, float* __restrict upper,
+                         float* __restrict lower, float* __restrict mag) {
+#pragma omp simd
+  for (std::size_t j = 0; j < M; ++j) {
+    const float mu = mean[j];
+    const float anti = mu < 0.5f ? mu + 0.5f : mu - 0.5f;
+    const bool in0 = mu >= a0 && mu <= b0, in1 = mu >= a1 && mu <= b1;
+    const bool anti_in = (anti >= a0 && anti <= b0) || (anti >= a1 && anti <= b1);
+    const float e0 = std::min(circle_distance(a0, mu), circle_distance(b0, mu));
+    const float e1 = std::min(circle_distance(a1, mu), circle_distance(b1, mu));
+    const float f0 = std::max(circle_distance(a0, mu), circle_distance(b0, mu));
+    const float f1 = std::max(circle_distance(a1, mu), circle_distance(b1, mu));
+    const float dmin = in0 || in1 ? 0.0f : std::min(e0, e1);
+    const float dmax = anti_in ? 0.5f : std::max(f0, f1);
+    const float far = dmax * dmax * sc2[j];
+    upper[j] -= dmin * dmin * sc2[j];
+    lower[j] -= far;
+    mag[j] += far;
+  }
+}
+
+}  // namespace
+
 // Per component, an upper and a lower bound of its log2 weight (Eq. 9, log2 units) over a
 // box of inputs: x and y as up to two intervals each, the four angles as intervals.
 // Vectorised over the components, one input at a time, in float with a margin for rounding.
@@ -33,6 +72,10 @@ void bound_log_weights(const ModelEvaluator::Impl& k, const Intervals& bx, const
     const float a0 = iv.lo[0], b0 = iv.hi[0];
     const float a1 = iv.count == 2 ? iv.lo[1] : a0, b1 = iv.count == 2 ? iv.hi[1] : b0;
     float* __restrict mag = magnitude;
+    if (d < kWrappedInputs) {
+      bound_wrapped_input(mean, sc2, a0, b0, a1, b1, M, upper, lower, mag);
+      continue;
+    }
 #pragma omp simd
     for (std::size_t j = 0; j < M; ++j) {
       const float mu = mean[j];
@@ -90,15 +133,10 @@ std::size_t select_components(const ModelEvaluator::Impl& k, const BlockInputs& 
     }
   float exact = std::numeric_limits<float>::infinity();
   for (int i = 0; i < n; ++i) {
+    float x[kInputs];
+    for (int d = 0; d < kInputs; ++d) x[d] = in.x[d][i];
     float best = -std::numeric_limits<float>::infinity();
-    for (std::size_t j : best_j) {
-      float t = k.base[j];
-      for (int d = 0; d < kInputs; ++d) {
-        const float e = in.x[d][i] * k.scale[std::size_t(d)][j] - k.offset[std::size_t(d)][j];
-        t -= e * e;
-      }
-      best = std::max(best, t);
-    }
+    for (std::size_t j : best_j) best = std::max(best, record_log2_weight(k.record[j].v, x, 0.0f));
     exact = std::min(exact, best);
   }
   lmax = std::max(double(lm), double(exact) - 1e-3 - 4e-6 * std::abs(double(exact)));

@@ -5,6 +5,8 @@
 // For a point with inputs x_I = (x, y, alpha_i, beta_i, alpha_v, beta_v) in model units,
 // Eq. (9)-(10) give the log weight
 //   t_m = log w_m - 1/2 sum_k log sigma_mk^2 - sum_k (x_k - mu_mk)^2 / (2 sigma_mk^2),
+// x - mu and y - mu in the minimum image (the Gaussians of x and y wrap around the tile,
+// model/mixture_internal.hpp),
 // and the colour is sum_m W_m mu_m,rgb (Eq. 8, times the colour unit) plus the mean BRDF
 // (Eq. 11). Points come in blocks of up to 256 (a 16 x 16 screen block); per block:
 //  1. the box of the block's inputs (x and y as up to two intervals, the tile wraps);
@@ -27,6 +29,7 @@
 
 #include <algorithm>
 #include <array>
+#include <cassert>
 #include <cmath>
 #include <cstring>
 #include <limits>
@@ -100,10 +103,10 @@ AffineTriangle affine_triangle(const std::vector<std::array<double, 2>>& xy,
   return r;
 }
 
-// Up to two closed intervals in [0, period] holding a set of wrapped coordinates (the box of
-// x or y over a block).
-Intervals wrapped_box(const float* v, int n, int stride, int period) {
-  const float ref = v[0], half = 0.5f * float(period), per = float(period);
+// Up to two closed intervals in [0, 1] holding a set of wrapped coordinates (the box of x or y,
+// as fractions of the tile, over a block).
+Intervals wrapped_box(const float* v, int n, int stride) {
+  const float ref = v[0], half = 0.5f, per = 1.0f;
   float dmin = 0, dmax = 0;
   for (int i = 1; i < n; ++i) {
     float d = v[i * stride] - ref;
@@ -145,9 +148,11 @@ void check_model(const BtfModel& model, double tolerance) {
 }
 
 // The components' parameters in the kernel's form: Eq. (9)'s base (log_weight_base) and the
-// terms of Eq. (10) (log2_marginal_term) in log2 units, the colour means of Eq. (8); per input
-// for the bounds, and as one record per component for the sums.
-void component_records(ModelEvaluator::Impl& k, const ProductMixture& mix) {
+// terms of Eq. (10) (log2_marginal_term, x and y wrapped around the tile) in log2 units, the
+// colour means of Eq. (8); per input for the bounds, and as one record per component for the
+// sums.
+void component_records(ModelEvaluator::Impl& k, const ProductMixture& mix,
+                       const detail::Periods& periods) {
   const double log2e = std::numbers::log2e;
   for (std::size_t i = 0; i < std::size_t(kInputs); ++i) {
     k.scale[i].resize(k.m);
@@ -161,10 +166,11 @@ void component_records(ModelEvaluator::Impl& k, const ProductMixture& mix) {
     k.base[j] = float(detail::log_weight_base(mix, j) * log2e);
     for (std::size_t i = 0; i < std::size_t(kInputs); ++i) {
       const detail::Log2MarginalTerm term =
-          detail::log2_marginal_term(mix.mean[j][i], mix.var[j][i]);
+          detail::log2_marginal_term(mix.mean[j][i], mix.var[j][i], periods[i]);
+      assert(term.wrapped == (int(i) < detail::kWrappedInputs));
       k.scale[i][j] = float(term.scale);
       k.offset[i][j] = float(term.offset);
-      k.mean_f[i][j] = float(mix.mean[j][i]);
+      k.mean_f[i][j] = float(term.mean);
       k.scale2_f[i][j] = float(term.scale2);
     }
     for (std::size_t c = 0; c < 3; ++c) k.colour[c][j] = float(mix.mean[j][6 + c]);
@@ -194,7 +200,7 @@ ModelEvaluator::ModelEvaluator(const BtfModel& model, double tolerance) {
   k.unit = model.scaling.unit;
   k.mean_brdf = model.mean_brdf;
   k.views = model.views.size();
-  component_records(k, mix);
+  component_records(k, mix, detail::model_periods(model));
   const double spread = detail::colour_spread(mix, k.unit);
   if (tolerance > 0.0 && k.m > 1) {
     k.cull = true;
@@ -253,15 +259,17 @@ struct BlockScratch {
       : upper(m), lower(m), scratch(m), bucket(m), keep(m), exact(kMaxBlock) {}
 };
 
-// 1. The inputs x_I in model units, lane by lane; the last point repeated to whole vectors.
-// `angle_unit`: 1 / the units of the four angles.
+// 1. The inputs x_I in model units, lane by lane (x and y as fractions of the tile, wrapped
+// into [0, 1]); the last point repeated to whole vectors. `angle_unit`: 1 / the units of the
+// four angles.
 inline void block_inputs(const ModelEvaluator::Impl& k, const SurfacePoint* pts, int n,
                          const std::array<float, 4>& angle_unit, BlockInputs& in) {
   const int nv = (n + kLanes - 1) / kLanes, padded = nv * kLanes;
+  const double inv_w = 1.0 / k.width, inv_h = 1.0 / k.height;
   for (int i = 0; i < n; ++i) {
     const SurfacePoint& p = pts[i];
-    in.x[0][i] = float(detail::tile_coordinate(p.x, k.width));
-    in.x[1][i] = float(detail::tile_coordinate(p.y, k.height));
+    in.x[0][i] = float(detail::tile_coordinate(p.x, k.width) * inv_w);
+    in.x[1][i] = float(detail::tile_coordinate(p.y, k.height) * inv_h);
     for (int c = 0; c < 3; ++c) {
       in.dir[c][i] = p.light[std::size_t(c)];
       in.dir[3 + c][i] = p.view[std::size_t(c)];
@@ -288,8 +296,8 @@ inline void block_inputs(const ModelEvaluator::Impl& k, const SurfacePoint* pts,
 inline std::size_t keep_components(const ModelEvaluator::Impl& k, BlockScratch& s, int n, double& r,
                                    double& lmax) {
   const BlockInputs& in = *s.in;
-  const Intervals bx = wrapped_box(in.x[0], n, 1, k.width);
-  const Intervals by = wrapped_box(in.x[1], n, 1, k.height);
+  const Intervals bx = wrapped_box(in.x[0], n, 1);
+  const Intervals by = wrapped_box(in.x[1], n, 1);
   std::array<float, kInputs> lo{}, hi{};
   for (int d = 2; d < kInputs; ++d) {
     float a = in.x[d][0], b = a;

@@ -11,8 +11,8 @@
 #include <limits>
 #include <vector>
 
-#include "btfgmm/model/mixture.hpp"
 #include "btfgmm/core/fast_interpolation.hpp"
+#include "btfgmm/model/mixture.hpp"
 #include "btfgmm/render/model_evaluator.hpp"
 #include "model/conditional.hpp"
 
@@ -49,7 +49,13 @@ inline Vf exp2v(Vf x) {
   return std::bit_cast<Vf>(bits);
 }
 
-// A block's inputs, lane by lane: x[k][i] is input k of point i, padded to whole vectors.
+// The inputs 0 and 1, x and y, wrap around the tile: the kernel takes them as fractions of the
+// tile's width and height, u = x / W and v = y / H in [0, 1), and their terms in the minimum
+// image (log2_marginal_term, wrapped_root in model/conditional.hpp).
+constexpr int kWrappedInputs = 2;
+
+// A block's inputs, lane by lane: x[k][i] is input k of point i, padded to whole vectors
+// (x and y as fractions of the tile).
 struct BlockInputs {
   alignas(64) float x[kInputs][kMaxBlock];
   // The light and view vectors (x, y, z each), for the mean BRDF.
@@ -59,7 +65,8 @@ struct BlockInputs {
 };
 
 // Per component (16 floats, one cache line): per input the scale s and offset s mu (the term
-// of Eq. 9 is (x s - s mu)^2 in log2 units), the log2 base weight, the colour means.
+// of Eq. 9 is (x s - s mu)^2 in log2 units; for x and y the scale is S = s W, s H and the
+// term is wrapped_root(u S - s mu, S)^2), the log2 base weight, the colour means.
 constexpr int kRecord = 16;
 struct alignas(64) Record {
   float v[kRecord];
@@ -69,6 +76,24 @@ inline Vf load(const float* p) {
   Vf v;
   std::memcpy(&v, p, sizeof v);
   return v;
+}
+
+// Eq. (9)'s exponent in log2 units, less `ref`, at a point (T = float) or a vector of points
+// (T = Vf) with inputs x: base - sum_k (x_k s_k - s_k mu_k)^2 from a component's record c, the
+// terms of x and y in the minimum image. The one statement of the kernel's term of Eq. (10),
+// for the sums, the per-point maxima and the exact weights of the bounds.
+template <class T>
+[[gnu::always_inline]] inline T record_log2_weight(const float* __restrict c, const T* x, T ref) {
+  T l = c[12] - ref;
+  for (int d = 0; d < kWrappedInputs; ++d) {
+    const T e = wrapped_root(x[d] * c[d] - c[kInputs + d], c[d]);
+    l -= e * e;
+  }
+  for (int d = kWrappedInputs; d < kInputs; ++d) {
+    const T e = x[d] * c[d] - c[kInputs + d];
+    l -= e * e;
+  }
+  return l;
 }
 
 // The sums of Eq. (8) for a vector of points: 2^t and 2^t mu per colour, lane by lane.
@@ -91,14 +116,8 @@ inline void sum_points(const Record* __restrict rec, const std::uint32_t* __rest
   }
   for (std::size_t a = 0; a < na; ++a) {
     const float* c = rec[keep[a]].v;
-    for (int q = 0; q < P; ++q) {
-      Vf l = c[12] - r[q];
-      for (int d = 0; d < kInputs; ++d) {
-        const Vf e = x[q][d] * c[d] - c[kInputs + d];
-        l -= e * e;
-      }
-      sums[q].add(exp2v(l), c[13], c[14], c[15]);
-    }
+    for (int q = 0; q < P; ++q)
+      sums[q].add(exp2v(record_log2_weight(c, x[q], r[q])), c[13], c[14], c[15]);
   }
   for (int q = 0; q < P; ++q) out[q] = sums[q];
 }
@@ -111,18 +130,14 @@ inline Vf max_log_weight(const Record* __restrict rec, const std::uint32_t* __re
   for (int d = 0; d < kInputs; ++d) x[d] = load(&in.x[d][v * kLanes]);
   Vf mx = splat(-std::numeric_limits<float>::infinity());
   for (std::size_t a = 0; a < na; ++a) {
-    const float* c = rec[keep[a]].v;
-    Vf l = splat(c[12]);
-    for (int d = 0; d < kInputs; ++d) {
-      const Vf e = x[d] * c[d] - c[kInputs + d];
-      l -= e * e;
-    }
+    const Vf l = record_log2_weight(rec[keep[a]].v, x, Vf{});
     mx = l > mx ? l : mx;
   }
   return mx;
 }
 
-// Up to two closed intervals in [0, period] holding a set of wrapped coordinates.
+// Up to two closed intervals in [0, 1] holding a set of wrapped coordinates (fractions of
+// the tile).
 struct Intervals {
   float lo[2] = {0, 0}, hi[2] = {0, 0};
   int count = 1;
@@ -137,7 +152,8 @@ struct ModelEvaluator::Impl {
   std::size_t m = 0;
   std::array<double, kVariables> unit{};
   // Per input k and component: s = sqrt(log2(e) / (2 sigma^2)) and s * mu, so that
-  // (x s - s mu)^2 is the term of Eq. (10) in log2 units (log2_marginal_term); base = Eq. (9)'s
+  // (x s - s mu)^2 is the term of Eq. (10) in log2 units (log2_marginal_term; x and y: S = s W,
+  // s H, the inputs fractions of the tile, the term wrapped); base = Eq. (9)'s
   // log_weight_base in log2 units; the colour means of Eq. (8) in model units.
   std::array<std::vector<float>, kInputs> scale, offset;
   std::vector<float> base;
@@ -145,7 +161,7 @@ struct ModelEvaluator::Impl {
   // The same, a record of kRecord floats per component: scale 0-5, offset 6-11, base 12,
   // colour 13-15 (aligned: a record is one cache line).
   std::vector<detail::Record> record;
-  // For the bounds: the means and s^2 per input.
+  // For the bounds: the means and s^2 per input, in the kernel's units (x, y: mu / W and S^2).
   std::array<std::vector<float>, kInputs> mean_f, scale2_f;
   // Skipping: on when tolerance > 0; a skipped set's sum of 2^(U_m - Lmax) may reach
   // budget = tolerance / spread (spread: of the components' colour means, levels).

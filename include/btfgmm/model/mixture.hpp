@@ -23,6 +23,21 @@ constexpr int kInputs = 6;     // the inputs I = {1..6} of Eq. (8)-(10)
 // of a uniform distribution over one step (docs/ALGORITHM.md, "Units and the variance floor").
 constexpr double kVarianceFloor = 1.0 / 12.0;
 
+// The tile the spatial variables x, y repeat on, in pixels (their model units): x is periodic
+// with period `width`, y with period `height`, and the Gaussians of x and y wrap around the
+// tile (docs/ALGORITHM.md, "The tile wraps"). 0: that variable does not wrap (samples that
+// are not a tile's).
+struct TilePeriod {
+  double width = 0.0, height = 0.0;
+};
+
+// The largest standard deviation of a wrapped variable, as a fraction of its period: the
+// wrapped Gaussians are evaluated in the minimum image (the nearest copy of the mean only),
+// which is exact to within exp(-(P/2)^2 / (2 sigma^2)) = e^-2 of the component's peak density
+// at sigma = P/4 (docs/ALGORITHM.md, "The tile wraps"). EM keeps sigma_x <= W/4 and
+// sigma_y <= H/4.
+constexpr double kMaxWrappedDeviation = 0.25;
+
 // P(x) = sum_m w_m prod_n N(x_n | mu_mn, sigma_mn^2)   (Eq. 1-2)
 struct ProductMixture {
   std::vector<double> weight;                        // w_m, sum 1
