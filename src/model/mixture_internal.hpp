@@ -22,16 +22,17 @@ namespace btfgmm::detail {
 // continuous in x across the wrap (at the antipode x = mu + P/2 the two nearest images give
 // the same value), costs one rounding per term instead of one exp per image (3 where one was),
 // and differs from the sum over the images by the images left out, each at least P/2 away:
-// at most ~2 exp(-(P/2)^2 / (2 sigma^2)) of the component's peak density, e^-2 = 0.14 at
-// sigma = P/4 (kMaxWrappedDeviation, the largest deviation EM gives a wrapped variable) and
-// below 1e-3 at sigma <= P/8. EM is the same approximation throughout: the E-step's densities
-// take the minimum image, and the M-step's shifted sums take the minimum image of x - mu_old
-// (the chart of the circle centred on the old mean), so the new mean is mu_old plus the mean
-// offset, wrapped back into [0, P), and the variance the mean squared offset from it. That is
+// at most ~2 exp(-(P/2)^2 / (2 sigma^2)) of the component's peak density, 2 e^-8 = 7e-4 at
+// sigma = P/8 (kMaxWrappedDeviation, the largest deviation EM gives a wrapped variable; at
+// P/4 it would be 0.27, and the slope's change of sign at the antipode a visible crease).
+// EM is the same approximation throughout: the E-step's densities take the minimum image, and
+// the M-step's shifted sums take the minimum image of x - mu_old (the chart of the circle
+// centred on the old mean), so the new mean is mu_old plus the mean offset, wrapped back into
+// [0, P), and the variance the mean squared offset from it. That is
 // the mean and variance that maximise the expected log-likelihood within the chart, and the
 // chart's squared offsets bound the minimum image's from above, so each iteration still does
 // not decrease the objective (a generalised EM step); they agree unless a sample sits near
-// the antipode of the old mean, where the component's density is below e^-2 of its peak.
+// the antipode of the old mean, where the component's density is below e^-8 of its peak.
 
 // The period of each of the nine variables: W for x, H for y, 0 (not periodic) for the rest.
 using Periods = std::array<double, kVariables>;

@@ -6,6 +6,7 @@
 #include <tiny_obj_loader.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <map>
 #include <numbers>
@@ -56,6 +57,76 @@ Mesh grid_mesh(int nu, int nv, F&& at) {
       if (keep(a, c, d)) m.triangles.push_back({a, c, d});
     }
   return m;
+}
+
+// The unit vector along v (v itself when it has no length).
+Vec3 direction_of(const Vec3& v) {
+  const double l = length(v);
+  return l > 0 ? v * (1.0 / l) : v;
+}
+
+// Groups of vertices at one position (within 1e-9 of the mesh's extent; the sphere's seam
+// vertices differ by rounding), each listed once, in vertex order.
+std::vector<std::vector<std::uint32_t>> coincident_vertices(const Mesh& m) {
+  double extent = 0.0;
+  for (const Vec3& p : m.position)
+    extent = std::max({extent, std::abs(p.x), std::abs(p.y), std::abs(p.z)});
+  const double cell = std::max(extent, 1e-300) * 1e-9;
+  using Key = std::array<long long, 3>;
+  auto key = [&](const Vec3& p) {
+    return Key{std::llround(std::floor(p.x / cell)), std::llround(std::floor(p.y / cell)),
+               std::llround(std::floor(p.z / cell))};
+  };
+  std::map<Key, std::vector<std::uint32_t>> cells;
+  for (std::size_t i = 0; i < m.position.size(); ++i)
+    cells[key(m.position[i])].push_back(std::uint32_t(i));
+  std::vector<std::vector<std::uint32_t>> groups;
+  std::vector<std::uint8_t> grouped(m.position.size(), 0);
+  for (std::size_t i = 0; i < m.position.size(); ++i) {
+    if (grouped[i]) continue;
+    std::vector<std::uint32_t> g;
+    const Key k = key(m.position[i]);
+    for (long long a = -1; a <= 1; ++a)
+      for (long long b = -1; b <= 1; ++b)
+        for (long long c = -1; c <= 1; ++c) {
+          const auto it = cells.find({k[0] + a, k[1] + b, k[2] + c});
+          if (it == cells.end()) continue;
+          for (const std::uint32_t j : it->second)
+            if (!grouped[j] && length(m.position[j] - m.position[i]) <= cell) g.push_back(j);
+        }
+    for (const std::uint32_t j : g) grouped[j] = 1;
+    if (g.size() > 1) groups.push_back(std::move(g));
+  }
+  return groups;
+}
+
+// Tangents shared across seams of the texture coordinates where the texture continues (the
+// sphere's and the cylinder's u = 0 / u = 2 meridian, an OBJ's UV seams): each vertex of a
+// group at one position adds the summed dP/du and dP/dv of the others whose normal and both
+// directions agree with its own (within 60 degrees: a seam that translates the UVs), so that
+// the frame, and with it the light and view directions handed to the BTF, does not jump
+// across the seam (one-sided sums differ by the angle of a slice, 5.6 degrees on a sphere of 64
+// slices). Mirrored or rotated UV islands keep their own frames.
+void share_seam_tangents(const Mesh& m, std::vector<Vec3>& tu, std::vector<Vec3>& tv) {
+  for (const auto& group : coincident_vertices(m)) {
+    std::vector<Vec3> su(group.size()), sv(group.size());
+    for (std::size_t a = 0; a < group.size(); ++a) {
+      const std::uint32_t i = group[a];
+      for (const std::uint32_t j : group) {
+        const bool agree = dot(direction_of(m.normal[i]), direction_of(m.normal[j])) > 0.5 &&
+                           dot(direction_of(tu[i]), direction_of(tu[j])) > 0.5 &&
+                           dot(direction_of(tv[i]), direction_of(tv[j])) > 0.5;
+        if (i == j || agree) {
+          su[a] = su[a] + tu[j];
+          sv[a] = sv[a] + tv[j];
+        }
+      }
+    }
+    for (std::size_t a = 0; a < group.size(); ++a) {
+      tu[group[a]] = su[a];
+      tv[group[a]] = sv[a];
+    }
+  }
 }
 
 void check_resolution(int n, int lo, const char* what) {
@@ -118,6 +189,7 @@ void compute_tangent_frames(Mesh& m) {
       if (lv > 0) tv[i] = tv[i] + pv * (area / lv);
     }
   }
+  share_seam_tangents(m, tu, tv);
   m.tangent.resize(n);
   m.bitangent.resize(n);
   for (std::size_t i = 0; i < n; ++i) {

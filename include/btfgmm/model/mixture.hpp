@@ -33,10 +33,10 @@ struct TilePeriod {
 
 // The largest standard deviation of a wrapped variable, as a fraction of its period: the
 // wrapped Gaussians are evaluated in the minimum image (the nearest copy of the mean only),
-// which is exact to within exp(-(P/2)^2 / (2 sigma^2)) = e^-2 of the component's peak density
-// at sigma = P/4 (docs/ALGORITHM.md, "The tile wraps"). EM keeps sigma_x <= W/4 and
-// sigma_y <= H/4.
-constexpr double kMaxWrappedDeviation = 0.25;
+// which is exact to within about 2 exp(-(P/2)^2 / (2 sigma^2)) = 2 e^-8 = 7e-4 of the
+// component's peak density at sigma = P/8 (docs/ALGORITHM.md, "The tile wraps"). EM keeps
+// sigma_x <= W/8 and sigma_y <= H/8.
+constexpr double kMaxWrappedDeviation = 0.125;
 
 // P(x) = sum_m w_m prod_n N(x_n | mu_mn, sigma_mn^2)   (Eq. 1-2)
 struct ProductMixture {
