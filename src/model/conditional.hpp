@@ -111,12 +111,13 @@ inline Log2MarginalTerm log2_marginal_term(double mu, double var, double period)
 }
 
 // The root of the minimum image's square in the float kernels' units (Log2MarginalTerm): for
-// e = u S - s mu in (-S, S), min(|e|, S - |e|), whose square is (s * wrapped_difference(x -
-// mu, P))^2. Three instructions more than the plain term (an and, a subtraction, a min).
-// T: float or a vector of floats.
+// e = u S - s mu in (-S, S), min(|e|, S - |e|), whose square is
+// (s * wrapped_difference(x - mu, P))^2. Four instructions more than the plain term (a sign
+// flip, a max, a subtraction, a min); the render kernel takes it only where a block of points
+// holds a component's antipode (render/model_kernel.hpp). T: float or a vector of floats.
 template <class T>
 [[gnu::always_inline]] inline T wrapped_root(T e, float period_scale) {
-  const T a = e < T{} ? -e : e;
+  const T a = e > -e ? e : -e;  // |e| as a max
   const T b = period_scale - a;
   return a < b ? a : b;
 }

@@ -136,7 +136,8 @@ std::size_t select_components(const ModelEvaluator::Impl& k, const BlockInputs& 
     float x[kInputs];
     for (int d = 0; d < kInputs; ++d) x[d] = in.x[d][i];
     float best = -std::numeric_limits<float>::infinity();
-    for (std::size_t j : best_j) best = std::max(best, record_log2_weight(k.record[j].v, x, 0.0f));
+    for (std::size_t j : best_j)
+      best = std::max(best, record_log2_weight<true>(k.record[j].v, x, 0.0f));
     exact = std::min(exact, best);
   }
   lmax = std::max(double(lm), double(exact) - 1e-3 - 4e-6 * std::abs(double(exact)));
@@ -167,6 +168,37 @@ std::size_t select_components(const ModelEvaluator::Impl& k, const BlockInputs& 
   }
   r = rf;
   return kept;
+}
+
+ImageLists image_records(const ModelEvaluator::Impl& k, const Intervals& bx, const Intervals& by,
+                         const std::uint32_t* __restrict keep, std::size_t kept,
+                         Record* __restrict local, std::uint32_t* __restrict plain_index,
+                         std::uint32_t* __restrict wrapped) {
+  ImageLists n;
+  const Intervals* box[kWrappedInputs] = {&bx, &by};
+  for (std::size_t a = 0; a < kept; ++a) {
+    const std::uint32_t j = keep[a];
+    float shift[kWrappedInputs] = {};
+    bool one_image = true;
+    for (int d = 0; d < kWrappedInputs; ++d) {
+      const Intervals& iv = *box[d];
+      const float mu = k.mean_f[std::size_t(d)][j];  // in [0, 1)
+      const float anti = mu < 0.5f ? mu + 0.5f : mu - 0.5f;
+      one_image = one_image && iv.count == 1 && !(anti >= iv.lo[0] && anti <= iv.hi[0]);
+      // The image of the mean nearest to the box's centre, mu - i: the offset s (mu - i) P.
+      shift[d] = std::nearbyint(mu - 0.5f * (iv.lo[0] + iv.hi[0]));
+    }
+    if (!one_image) {
+      wrapped[n.wrapped++] = j;
+      continue;
+    }
+    Record& r = local[n.plain];
+    r = k.record[j];
+    for (int d = 0; d < kWrappedInputs; ++d) r.v[kInputs + d] -= shift[d] * r.v[d];
+    plain_index[n.plain] = std::uint32_t(n.plain);
+    ++n.plain;
+  }
+  return n;
 }
 
 }  // namespace btfgmm::detail

@@ -251,12 +251,25 @@ struct BlockScratch {
   std::vector<float> upper, lower, scratch;
   std::vector<std::int32_t> bucket;
   std::vector<std::uint32_t> keep;
+  // The kept components in the two lists of image_records: records with the block's image of
+  // their means (and their indices), and the indices of those taken wrapped point by point.
+  std::vector<Record> local;
+  std::vector<std::uint32_t> plain, wrapped;
+  detail::ImageLists lists;
   std::array<Vf, kMaxBlock / kLanes> ref;
   std::array<LaneSums, kMaxBlock / kLanes> sums;
   std::vector<std::uint8_t> exact;
   std::uint32_t hint_l = std::numeric_limits<std::uint32_t>::max(), hint_v = hint_l;
   explicit BlockScratch(std::size_t m)
-      : upper(m), lower(m), scratch(m), bucket(m), keep(m), exact(kMaxBlock) {}
+      : upper(m),
+        lower(m),
+        scratch(m),
+        bucket(m),
+        keep(m),
+        local(m),
+        plain(m),
+        wrapped(m),
+        exact(kMaxBlock) {}
 };
 
 // 1. The inputs x_I in model units, lane by lane (x and y as fractions of the tile, wrapped
@@ -292,7 +305,8 @@ inline void block_inputs(const ModelEvaluator::Impl& k, const SurfacePoint* pts,
 }
 
 // 2. The box of the block's inputs, the bounds of every component's log weight over it and
-// the components kept (all of them without culling; r and lmax are then left 0).
+// the components kept (all of them without culling; r and lmax are then left 0), in the two
+// lists of image_records (s.lists).
 inline std::size_t keep_components(const ModelEvaluator::Impl& k, BlockScratch& s, int n, double& r,
                                    double& lmax) {
   const BlockInputs& in = *s.in;
@@ -317,25 +331,47 @@ inline std::size_t keep_components(const ModelEvaluator::Impl& k, BlockScratch& 
   } else {
     for (std::size_t j = 0; j < k.m; ++j) s.keep[kept++] = std::uint32_t(j);
   }
+  s.lists = detail::image_records(k, bx, by, s.keep.data(), kept, s.local.data(), s.plain.data(),
+                                  s.wrapped.data());
   return kept;
+}
+
+// The sums of Eq. (8) over one list of components (sum_points<., Wrapped>), two vectors of
+// points at a time, added to s.sums.
+template <bool Wrapped>
+inline void list_sums(const Record* rec, const std::uint32_t* list, std::size_t count,
+                      BlockScratch& s, int nv) {
+  const BlockInputs& in = *s.in;
+  int v = 0;
+  for (; v + 2 <= nv; v += 2)
+    detail::sum_points<2, Wrapped>(rec, list, count, in, v, s.ref.data(), &s.sums[std::size_t(v)]);
+  if (v < nv)
+    detail::sum_points<1, Wrapped>(rec, list, count, in, v, s.ref.data(), &s.sums[std::size_t(v)]);
 }
 
 // 3. The sums of Eq. (8) over the kept components, point by point into in.sum, with the
 // block's reference r when every point's largest term is then far from underflow
-// (`one_pass`: r - Lmax <= 56 in log2 units), else each point's own maximum.
-inline void block_sums(const ModelEvaluator::Impl& k, BlockScratch& s, int n, std::size_t kept,
-                       bool one_pass, double r) {
+// (`one_pass`: r - Lmax <= 56 in log2 units), else each point's own maximum. The components
+// with one image of their means nearest to the whole block take the plain terms (s.local),
+// the others the minimum image point by point.
+inline void block_sums(const ModelEvaluator::Impl& k, BlockScratch& s, int n, bool one_pass,
+                       double r) {
   BlockInputs& in = *s.in;
   const int nv = (n + kLanes - 1) / kLanes;
   const Record* rec = k.record.data();
-  for (int v = 0; v < nv; ++v)
-    s.ref[std::size_t(v)] = one_pass ? detail::splat(float(r))
-                                     : detail::max_log_weight(rec, s.keep.data(), kept, in, v);
-  int v = 0;
-  for (; v + 2 <= nv; v += 2)
-    detail::sum_points<2>(rec, s.keep.data(), kept, in, v, s.ref.data(), &s.sums[std::size_t(v)]);
-  if (v < nv)
-    detail::sum_points<1>(rec, s.keep.data(), kept, in, v, s.ref.data(), &s.sums[std::size_t(v)]);
+  const detail::ImageLists& lists = s.lists;
+  for (int v = 0; v < nv; ++v) {
+    Vf ref = detail::splat(float(r));
+    if (!one_pass) {
+      ref = detail::max_log_weight<false>(s.local.data(), s.plain.data(), lists.plain, in, v,
+                                          detail::splat(-std::numeric_limits<float>::infinity()));
+      ref = detail::max_log_weight<true>(rec, s.wrapped.data(), lists.wrapped, in, v, ref);
+    }
+    s.ref[std::size_t(v)] = ref;
+    s.sums[std::size_t(v)] = LaneSums{};
+  }
+  list_sums<false>(s.local.data(), s.plain.data(), lists.plain, s, nv);
+  list_sums<true>(rec, s.wrapped.data(), lists.wrapped, s, nv);
   for (int w = 0; w < nv; ++w) {
     const LaneSums& sw = s.sums[std::size_t(w)];
     std::memcpy(&in.sum[0][w * kLanes], &sw.weight, sizeof(Vf));
@@ -443,7 +479,7 @@ inline std::uint64_t evaluate_block(const ModelEvaluator::Impl& k, BlockScratch&
   block_inputs(k, pts, n, angle_unit, *s.in);
   double r = 0.0, lmax = 0.0;
   const std::size_t kept = keep_components(k, s, n, r, lmax);
-  block_sums(k, s, n, kept, k.cull && r - lmax <= 56.0, r);
+  block_sums(k, s, n, k.cull && r - lmax <= 56.0, r);
   block_colours(k, s, pts, n, out);
   return std::uint64_t(kept) * std::uint64_t(n);
 }

@@ -79,18 +79,18 @@ inline Vf load(const float* p) {
 }
 
 // Eq. (9)'s exponent in log2 units, less `ref`, at a point (T = float) or a vector of points
-// (T = Vf) with inputs x: base - sum_k (x_k s_k - s_k mu_k)^2 from a component's record c, the
-// terms of x and y in the minimum image. The one statement of the kernel's term of Eq. (10),
-// for the sums, the per-point maxima and the exact weights of the bounds.
-template <class T>
+// (T = Vf) with inputs x: base - sum_k (x_k s_k - s_k mu_k)^2 from a component's record c. The
+// one statement of the kernel's term of Eq. (10), for the sums, the per-point maxima and the
+// exact weights of the bounds. `Wrapped`: the terms of x and y in the minimum image
+// (wrapped_root); otherwise as they stand, for a record whose offsets already hold the image
+// of its mean nearest to every point of the block (image_records).
+template <bool Wrapped, class T>
 [[gnu::always_inline]] inline T record_log2_weight(const float* __restrict c, const T* x, T ref) {
   T l = c[12] - ref;
-  for (int d = 0; d < kWrappedInputs; ++d) {
-    const T e = wrapped_root(x[d] * c[d] - c[kInputs + d], c[d]);
-    l -= e * e;
-  }
-  for (int d = kWrappedInputs; d < kInputs; ++d) {
-    const T e = x[d] * c[d] - c[kInputs + d];
+  for (int d = 0; d < kInputs; ++d) {
+    T e = x[d] * c[d] - c[kInputs + d];
+    if constexpr (Wrapped)
+      if (d < kWrappedInputs) e = wrapped_root(e, c[d]);
     l -= e * e;
   }
   return l;
@@ -99,12 +99,13 @@ template <class T>
 // The sums of Eq. (8) for a vector of points: 2^t and 2^t mu per colour, lane by lane.
 using LaneSums = ConditionalColour<Vf>;
 
-// Over the kept components `keep[0..na)`, for P vectors of points starting at lane vector
-// v0: the sums of Eq. (8), 2^(t - ref) and 2^(t - ref) mu, with t = base - sum_k (x_k s_k -
-// o_k)^2 Eq. (9)'s exponent in log2 units (the record's terms of Eq. 10) and ref the point's
-// reference (at least its largest t, or close enough that nothing
-// overflows). Vectorised over the points: every component's parameters are broadcast.
-template <int P>
+// Over the components `keep[0..na)` of `rec`, for P vectors of points starting at lane vector
+// v0: the sums of Eq. (8), 2^(t - ref) and 2^(t - ref) mu, added to `out`, with t = base -
+// sum_k (x_k s_k - o_k)^2 Eq. (9)'s exponent in log2 units (the record's terms of Eq. 10,
+// record_log2_weight<Wrapped>) and ref the point's reference (at least its largest t, or close
+// enough that nothing overflows). Vectorised over the points: every component's parameters
+// are broadcast.
+template <int P, bool Wrapped>
 inline void sum_points(const Record* __restrict rec, const std::uint32_t* __restrict keep,
                        std::size_t na, const BlockInputs& in, int v0, const Vf* ref,
                        LaneSums* out) {
@@ -113,24 +114,25 @@ inline void sum_points(const Record* __restrict rec, const std::uint32_t* __rest
   for (int q = 0; q < P; ++q) {
     for (int d = 0; d < kInputs; ++d) x[q][d] = load(&in.x[d][(v0 + q) * kLanes]);
     r[q] = ref[v0 + q];
+    sums[q] = out[q];
   }
   for (std::size_t a = 0; a < na; ++a) {
     const float* c = rec[keep[a]].v;
     for (int q = 0; q < P; ++q)
-      sums[q].add(exp2v(record_log2_weight(c, x[q], r[q])), c[13], c[14], c[15]);
+      sums[q].add(exp2v(record_log2_weight<Wrapped>(c, x[q], r[q])), c[13], c[14], c[15]);
   }
   for (int q = 0; q < P; ++q) out[q] = sums[q];
 }
 
-// The largest t over the kept components, per point (for blocks whose bounds are too loose
-// for a common reference).
+// The largest of `mx` and t over the components `keep[0..na)` of `rec`, per point (for blocks
+// whose bounds are too loose for a common reference).
+template <bool Wrapped>
 inline Vf max_log_weight(const Record* __restrict rec, const std::uint32_t* __restrict keep,
-                         std::size_t na, const BlockInputs& in, int v) {
+                         std::size_t na, const BlockInputs& in, int v, Vf mx) {
   Vf x[kInputs];
   for (int d = 0; d < kInputs; ++d) x[d] = load(&in.x[d][v * kLanes]);
-  Vf mx = splat(-std::numeric_limits<float>::infinity());
   for (std::size_t a = 0; a < na; ++a) {
-    const Vf l = record_log2_weight(rec[keep[a]].v, x, Vf{});
+    const Vf l = record_log2_weight<Wrapped>(rec[keep[a]].v, x, Vf{});
     mx = l > mx ? l : mx;
   }
   return mx;
@@ -190,6 +192,21 @@ void bound_log_weights(const ModelEvaluator::Impl& k, const Intervals& bx, const
                        const std::array<float, kInputs>& lo, const std::array<float, kInputs>& hi,
                        float* __restrict upper, float* __restrict lower,
                        float* __restrict magnitude);
+
+// The kept components `keep[0..kept)` of a block with the boxes bx, by of its x and y, in two
+// lists: those whose mean's antipode (where the minimum image changes from one image of the
+// mean to the next) lies outside both boxes have one image nearest to every point of the
+// block, and go to `local` as records whose offsets hold that image (s mu + k S), evaluated as
+// they stand (local[0..plain), indexed by plain_index); the others go to `wrapped` (indices
+// into the model's records) and take the minimum image point by point. A box that is split
+// at the tile's edge or wide sends every component to `wrapped`. Returns the counts.
+struct ImageLists {
+  std::size_t plain = 0, wrapped = 0;
+};
+ImageLists image_records(const ModelEvaluator::Impl& k, const Intervals& bx, const Intervals& by,
+                         const std::uint32_t* __restrict keep, std::size_t kept,
+                         Record* __restrict local, std::uint32_t* __restrict plain_index,
+                         std::uint32_t* __restrict wrapped);
 
 // The components a block needs (their indices into `keep`, returning how many), r = the
 // largest upper bound kept, and Lmax, a lower bound of every point's largest log2 weight t*:
