@@ -124,20 +124,20 @@ MatD row_gram(const CentredData& d, double& total) {
   return g;
 }
 
-// Xcᵀ u (cols x u.cols()).
+// Xcᵀ u (cols x u.cols()), summed over contiguous blocks of rows.
 MatD transpose_times(const CentredData& d, const MatD& u) {
-  MatD out(Eigen::Index(d.cols()), u.cols());
-  d.for_col_blocks([&](const MatD& b, Eigen::Index c0, Eigen::Index n) {
-    out.middleRows(c0, n).noalias() = b.transpose() * u;
+  MatD out = MatD::Zero(Eigen::Index(d.cols()), u.cols());
+  d.for_row_blocks([&](const auto& b, Eigen::Index r0, Eigen::Index n) {
+    out.noalias() += b.transpose() * u.middleRows(r0, n);
   });
   return out;
 }
 
-// Xc v (rows x v.cols()).
+// Xc v (rows x v.cols()), by contiguous blocks of rows.
 MatD times(const CentredData& d, const MatD& v) {
-  MatD out = MatD::Zero(Eigen::Index(d.rows()), v.cols());
-  d.for_col_blocks([&](const MatD& b, Eigen::Index c0, Eigen::Index n) {
-    out.noalias() += b * v.middleRows(c0, n);
+  MatD out(Eigen::Index(d.rows()), v.cols());
+  d.for_row_blocks([&](const auto& b, Eigen::Index r0, Eigen::Index n) {
+    out.middleRows(r0, n).noalias() = b * v;
   });
   return out;
 }
