@@ -7,6 +7,7 @@
 #include <array>
 
 #include "btfgmm/core/error.hpp"
+#include "btfgmm/core/text.hpp"
 #include "btfgmm/io/files.hpp"
 #include "btfgmm/methods/gaussian_mixture.hpp"
 #include "btfgmm/methods/lpca.hpp"
@@ -76,22 +77,6 @@ const std::vector<MethodInfo>& table() {
   return methods;
 }
 
-// Levenshtein distance, for "did you mean".
-std::size_t edit_distance(std::string_view a, std::string_view b) {
-  std::vector<std::size_t> row(b.size() + 1);
-  for (std::size_t j = 0; j <= b.size(); ++j) row[j] = j;
-  for (std::size_t i = 1; i <= a.size(); ++i) {
-    std::size_t diag = row[0];
-    row[0] = i;
-    for (std::size_t j = 1; j <= b.size(); ++j) {
-      const std::size_t up = row[j];
-      row[j] = std::min({row[j] + 1, row[j - 1] + 1, diag + (a[i - 1] == b[j - 1] ? 0 : 1)});
-      diag = up;
-    }
-  }
-  return row[b.size()];
-}
-
 }  // namespace
 
 std::span<const MethodInfo> all_methods() {
@@ -101,20 +86,11 @@ std::span<const MethodInfo> all_methods() {
 const MethodInfo& find_method(std::string_view name) {
   for (const MethodInfo& m : table())
     if (m.name == name) return m;
-  std::string names, nearest;
-  std::size_t best = 3;  // suggest only names within two edits
-  for (const MethodInfo& m : table()) {
-    names += (names.empty() ? "" : ", ") + std::string(m.name);
-    const std::size_t d = edit_distance(name, m.name);
-    if (d < best) {
-      best = d;
-      nearest = std::string(m.name);
-    }
-  }
-  throw Error(
-      Error::Kind::kArgument,
-      fmt::format("unknown method '{}'{}; the methods are: {}", name,
-                  nearest.empty() ? "" : fmt::format(" (did you mean '{}'?)", nearest), names));
+  std::vector<std::string_view> names;
+  for (const MethodInfo& m : table()) names.push_back(m.name);
+  throw Error(Error::Kind::kArgument,
+              fmt::format("unknown method '{}'{}; the methods are: {}", name,
+                          did_you_mean(name, names), fmt::join(names, ", ")));
 }
 
 std::unique_ptr<Representation> read_representation(std::span<const std::uint8_t> bytes,
