@@ -328,8 +328,8 @@ TEST_F(BadInput, ModelOfZeroBytes) {
 TEST_F(BadInput, ModelThatIsAPng) {
   generate();
   fs::copy_file(p("btf/") + kImage, p("png.btfgmm"));
-  expect_model_refused(p("png.btfgmm"), {p("png.btfgmm"), "it is a PNG image",
-                                         "give a .btfgmm file written by 'btfgmm fit'"});
+  expect_model_refused(p("png.btfgmm"), {p("png.btfgmm"), "is a PNG image, not a btfgmm model",
+                                         "fitted to a folder of BTF images: btfgmm fit FOLDER"});
 }
 
 TEST_F(BadInput, EvalAnglesOutOfRangeOrNan) {

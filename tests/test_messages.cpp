@@ -1,5 +1,5 @@
-// What the library tells a user who went wrong or waits: the nearest name to a mistyped one and
-// the progress of a long generation.
+// What the library tells a user who went wrong or waits: the nearest name to a mistyped one, what
+// a file holds when it is not a model, and the progress of a long generation.
 #include <gtest/gtest.h>
 #include <unistd.h>
 
@@ -13,7 +13,10 @@
 #include "btfgmm/core/error.hpp"
 #include "btfgmm/core/text.hpp"
 #include "btfgmm/io/dataset.hpp"
+#include "btfgmm/io/file_kind.hpp"
 #include "btfgmm/io/utia.hpp"
+#include "btfgmm/methods/registry.hpp"
+#include "btfgmm/model/model_file.hpp"
 #include "btfgmm/synth/generate.hpp"
 #include "test_util.hpp"
 
@@ -22,6 +25,12 @@ namespace {
 
 namespace fs = std::filesystem;
 using test::error_of;
+
+std::vector<std::uint8_t> bytes_of(std::string_view s, std::size_t size = 0) {
+  std::vector<std::uint8_t> b(s.begin(), s.end());
+  if (b.size() < size) b.resize(size, 0);
+  return b;
+}
 
 fs::path fresh_dir() {
   const fs::path d = fs::temp_directory_path() /
@@ -66,6 +75,76 @@ TEST(Messages, MaterialsComeFromOneTableAndMistypingsGetTheNearest) {
   EXPECT_NE(msg.find("corduroy, knit, bumps, leather"), std::string::npos) << msg;
 }
 
+TEST(Messages, IdentifiesCommonFilesByTheirFirstBytes) {
+  std::vector<std::uint8_t> tar = bytes_of("c/", 512);
+  std::copy_n("ustar", 5, tar.begin() + 257);
+  const struct {
+    std::vector<std::uint8_t> head;
+    FileKind::Class kind;
+    std::string_view what;
+  } cases[] = {
+      {bytes_of("\x1f\x8b\x08\x00", 32), FileKind::Class::kArchive, "a gzip archive"},
+      {tar, FileKind::Class::kArchive, "a tar archive"},
+      {bytes_of("BZh91AY", 32), FileKind::Class::kArchive, "a bzip2 archive"},
+      {bytes_of("\xfd\x37\x7a\x58\x5a\x00", 32), FileKind::Class::kArchive, "an xz archive"},
+      {bytes_of("PK\x03\x04", 32), FileKind::Class::kZip, "a zip archive"},
+      {bytes_of("\x89PNG\r\n\x1a\n", 32), FileKind::Class::kImage, "a PNG image"},
+      {bytes_of("\xff\xd8\xff\xe0", 32), FileKind::Class::kImage, "a JPEG image"},
+      {bytes_of("\x76\x2f\x31\x01", 32), FileKind::Class::kImage, "an OpenEXR image"},
+      {bytes_of("II*\0", 32), FileKind::Class::kImage, "a TIFF image"},
+      {bytes_of("BM", 32), FileKind::Class::kImage, "a BMP image"},
+      {bytes_of("%PDF-1.7", 32), FileKind::Class::kOther, "a PDF document"},
+      {bytes_of("v 0 0 0\nvt 0 0\n"), FileKind::Class::kOther, "a text file"},
+  };
+  for (const auto& c : cases) {
+    const auto k = identify_file(c.head);
+    ASSERT_TRUE(k.has_value()) << c.what;
+    EXPECT_EQ(k->kind, c.kind) << c.what;
+    EXPECT_EQ(k->what, c.what);
+  }
+  // A btfgmm model, and bytes of no known kind, are none of these.
+  EXPECT_FALSE(identify_file(model_file_bytes("gm", 0, bytes_of("", 64))).has_value());
+  EXPECT_FALSE(identify_file(bytes_of("\x01\x02\x03\x00\xfe", 64)).has_value());
+  EXPECT_FALSE(identify_file({}).has_value());
+  EXPECT_EQ(unread_image_format_from_name("a.TIFF"), "TIFF");
+  EXPECT_EQ(unread_image_format_from_name("tl000_pl000_tv000_pv000.bmp"), "BMP");
+  EXPECT_FALSE(unread_image_format_from_name("a.png").has_value());
+}
+
+TEST(Messages, AModelReaderSaysWhatTheFileIsAndWhatToDo) {
+  auto message = [](std::string_view bytes, const std::string& name) {
+    return error_of([&] { read_representation(bytes_of(bytes, 600), name); });
+  };
+  std::string m = message("\x1f\x8b\x08\x00", "c.tar.gz");
+  EXPECT_NE(m.find("'c.tar.gz' is a gzip archive, not a btfgmm model"), std::string::npos) << m;
+  EXPECT_NE(m.find("extract it and fit the BTF images it holds: btfgmm fit FOLDER -o "
+                   "model.btfgmm"),
+            std::string::npos)
+      << m;
+  m = message("PK\x03\x04", "UBO_CORDUROY256.zip");
+  EXPECT_NE(m.find("is a zip archive, not a btfgmm model"), std::string::npos) << m;
+  EXPECT_NE(m.find("btfgmm fit UBO_CORDUROY256.zip -o model.btfgmm"), std::string::npos) << m;
+  m = message("\xff\xd8\xff\xe0", "photo.btfgmm");
+  EXPECT_NE(m.find("'photo.btfgmm' is a JPEG image, not a btfgmm model"), std::string::npos) << m;
+  m = message("\x01\x02\x00", "junk.btfgmm");
+  EXPECT_NE(m.find("does not start with the btfgmm magic bytes"), std::string::npos) << m;
+}
+
+TEST(Messages, AFolderGivenAsAModelIsNamedAndTheFitShown) {
+  const fs::path dir = fresh_dir();
+  Btf b(DirectionSet::rings({{0, 1}}), DirectionSet::rings({{0, 1}}), 4, 4, SampleFormat::kLdr8);
+  write_utia(b, dir / "btf");
+  std::string m = error_of([&] { load_representation(dir / "btf"); });
+  EXPECT_NE(m.find("is a folder of images, not a model; fit a model to it first: btfgmm fit " +
+                   (dir / "btf").string() + " -o model.btfgmm"),
+            std::string::npos)
+      << m;
+  fs::create_directories(dir / "empty");
+  m = error_of([&] { load_representation(dir / "empty"); });
+  EXPECT_NE(m.find("is a folder, not a model file"), std::string::npos) << m;
+  fs::remove_all(dir);
+}
+
 TEST(Messages, GenerationAndWritingReportTheirProgress) {
   GenerateConfig c;
   c.size = 8;
@@ -90,5 +169,5 @@ TEST(Messages, GenerationAndWritingReportTheirProgress) {
   fs::remove_all(dir);
 }
 
-  // namespace
+}  // namespace
 }  // namespace btfgmm

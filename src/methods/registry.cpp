@@ -8,7 +8,9 @@
 
 #include "btfgmm/core/error.hpp"
 #include "btfgmm/core/text.hpp"
+#include "btfgmm/io/file_kind.hpp"
 #include "btfgmm/io/files.hpp"
+#include "btfgmm/io/image.hpp"
 #include "btfgmm/methods/gaussian_mixture.hpp"
 #include "btfgmm/methods/lpca.hpp"
 #include "btfgmm/methods/pca_btf.hpp"
@@ -104,7 +106,42 @@ std::unique_ptr<Representation> read_representation(std::span<const std::uint8_t
                           name, c.method));
 }
 
+namespace {
+
+// Whether a folder holds images (in it or in its subfolders, as the UTIA layout has them), in
+// any format: a BTF, or one in a format to convert.
+bool holds_images(const std::filesystem::path& folder) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  for (auto it = fs::recursive_directory_iterator(folder, ec); !ec && it != fs::end(it);
+       it.increment(ec)) {
+    if (it.depth() > 1) it.disable_recursion_pending();
+    const std::string name = it->path().filename().string();
+    if (image_format_from_name(name) || unread_image_format_from_name(name)) return true;
+  }
+  return false;
+}
+
+// Error(kArgument) when `path` is a folder, where a model file was expected: a folder of BTF
+// images is fitted first.
+void check_not_folder(const std::filesystem::path& path) {
+  std::error_code ec;
+  if (!std::filesystem::is_directory(path, ec)) return;
+  if (holds_images(path))
+    throw Error(Error::Kind::kArgument,
+                fmt::format("'{}' is a folder of images, not a model; fit a model to it first: "
+                            "btfgmm fit {} -o model.btfgmm (then give model.btfgmm here)",
+                            path.string(), path.string()));
+  throw Error(Error::Kind::kArgument,
+              fmt::format("'{}' is a folder, not a model file; give a .btfgmm file written by "
+                          "'btfgmm fit'",
+                          path.string()));
+}
+
+}  // namespace
+
 std::unique_ptr<Representation> load_representation(const std::filesystem::path& path) {
+  check_not_folder(path);
   return read_representation(read_whole_file(path, "model file"), path.string());
 }
 
