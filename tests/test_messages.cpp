@@ -1,11 +1,14 @@
 // What the library tells a user who went wrong or waits: the nearest name to a mistyped one, what
-// a file holds when it is not a model, and the progress of a long generation.
+// a file holds when it is not a model, the progress of a long generation, and output images
+// written in the format their names say.
 #include <gtest/gtest.h>
 #include <unistd.h>
 
 #include <algorithm>
+#include <cmath>
 #include <cstdint>
 #include <filesystem>
+#include <fstream>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -14,6 +17,7 @@
 #include "btfgmm/core/text.hpp"
 #include "btfgmm/io/dataset.hpp"
 #include "btfgmm/io/file_kind.hpp"
+#include "btfgmm/io/image.hpp"
 #include "btfgmm/io/utia.hpp"
 #include "btfgmm/methods/registry.hpp"
 #include "btfgmm/model/model_file.hpp"
@@ -166,6 +170,37 @@ TEST(Messages, GenerationAndWritingReportTheirProgress) {
   ASSERT_EQ(written.size(), 25u);
   EXPECT_DOUBLE_EQ(written.back(), 1.0);
   EXPECT_TRUE(std::is_sorted(written.begin(), written.end()));
+  fs::remove_all(dir);
+}
+
+TEST(Messages, ImagesAreWrittenInTheFormatTheirNamesSay) {
+  const fs::path dir = fresh_dir();
+  std::vector<float> levels(4 * 2 * 3);
+  for (std::size_t i = 0; i < levels.size(); ++i) levels[i] = float(i * 10);
+  write_picture(dir / "a.jpg", 4, 2, levels);
+  write_picture(dir / "b.JPEG", 4, 2, levels);
+  write_picture(dir / "c.png", 4, 2, levels);
+  write_picture(dir / "d.exr", 4, 2, levels);
+  auto head = [&](const char* name) {
+    std::ifstream in(dir / name, std::ios::binary);
+    std::vector<std::uint8_t> b(16);
+    in.read(reinterpret_cast<char*>(b.data()), 16);
+    return identify_file(b)->what;
+  };
+  EXPECT_EQ(head("a.jpg"), "a JPEG image");
+  EXPECT_EQ(head("b.JPEG"), "a JPEG image");
+  EXPECT_EQ(head("c.png"), "a PNG image");
+  EXPECT_EQ(head("d.exr"), "an OpenEXR image");
+  // The EXR holds linear values: the levels decoded from sRGB.
+  const Image exr = read_image(dir / "d.exr");
+  EXPECT_FLOAT_EQ(exr.rgb[0], 0.0f);
+  EXPECT_NEAR(exr.rgb[23], std::pow((230.0 / 255.0 + 0.055) / 1.055, 2.4), 1e-6);
+  const Image jpeg = read_image(dir / "a.jpg");
+  for (std::size_t i = 0; i < levels.size(); ++i) EXPECT_NEAR(jpeg.rgb[i], levels[i], 12.0) << i;
+  const std::string m = error_of([&] { write_picture(dir / "e.tif", 4, 2, levels); });
+  EXPECT_NE(m.find("e.tif"), std::string::npos) << m;
+  EXPECT_NE(m.find(".png, .jpg (or .jpeg) or .exr"), std::string::npos) << m;
+  EXPECT_FALSE(fs::exists(dir / "e.tif"));
   fs::remove_all(dir);
 }
 
