@@ -195,7 +195,7 @@ TEST_F(Cli, EvalLabelsItsValuesAndSaysWhatXAndYAre) {
   CliRun r = run("eval --help");
   EXPECT_NE(r.out.find("integers are pixel centres"), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("0 the tile's first column"), std::string::npos) << r.out;
-  r = run(std::string("generate --size 8 -q ") + kSmall + " -o " + p("btf"));
+  r = run(std::string("generate --size 8 ") + kSmall + " -o " + p("btf"));
   ASSERT_EQ(r.status, 0) << r.out;
   r = run("fit " + p("btf") + " -M 3 --iterations 1 -q -o " + p("m.btfgmm"));
   ASSERT_EQ(r.status, 0) << r.out;
@@ -215,7 +215,7 @@ TEST_F(Cli, EvalLabelsItsValuesAndSaysWhatXAndYAre) {
 }
 
 TEST_F(Cli, InfoJsonPrintsADirectionPairALine) {
-  CliRun r = run(std::string("generate --size 8 -q ") + kSmall + " -o " + p("btf"));
+  CliRun r = run(std::string("generate --size 8 ") + kSmall + " -o " + p("btf"));
   ASSERT_EQ(r.status, 0) << r.out;
   r = run("info --json " + p("btf"));
   ASSERT_EQ(r.status, 0) << r.out;
@@ -229,12 +229,11 @@ TEST_F(Cli, InfoJsonPrintsADirectionPairALine) {
 }
 
 TEST_F(Cli, TilePrefersNearSquareTilesAndListsTheBest) {
-  CliRun r =
-      run("generate --size 32 --supersample 1 -q " + std::string(kSmall) + " -o " + p("btf"));
+  CliRun r = run("generate --size 24 --supersample 1 " + std::string(kSmall) + " -o " + p("btf"));
   ASSERT_EQ(r.status, 0) << r.out;
   r = run("tile --help");
   EXPECT_NE(r.out.find("seam error times its aspect ratio"), std::string::npos) << r.out;
-  r = run("tile " + p("btf") + " --size 8-20x8-20 --top 4");
+  r = run("tile " + p("btf") + " --size 8-12x8-12 --top 4");
   ASSERT_EQ(r.status, 0) << r.out;
   std::vector<std::pair<int, int>> sizes;
   std::vector<double> scores;
@@ -255,7 +254,7 @@ TEST_F(Cli, TilePrefersNearSquareTilesAndListsTheBest) {
   std::sort(sizes.begin(), sizes.end());
   EXPECT_EQ(std::unique(sizes.begin(), sizes.end()), sizes.end()) << "one line a size: " << r.out;
   // The chosen tile (rank 1) is near square: within 1.5 of it.
-  r = run("tile " + p("btf") + " --size 8-20x8-20 --json");
+  r = run("tile " + p("btf") + " --size 8-12x8-12 --json");
   const auto j = nlohmann::json::parse(r.out);
   const double w = j["tile"][2], h = j["tile"][3];
   EXPECT_LE(std::max(w, h) / std::min(w, h), 1.5) << r.out;
