@@ -172,11 +172,6 @@ void run_compare(const CompareOptions& o) {
                   fmt::format("model '{}' does not exist; give the path of a .btfgmm file written "
                               "by btfgmm fit",
                               path));
-    if (!is_model_path(path))
-      throw Error(Error::Kind::kArgument,
-                  fmt::format("'{}' is not a model file; give the BTF first, then one or more "
-                              ".btfgmm models written by btfgmm fit",
-                              path));
     const ModelFrame& m = models.emplace_back(load_representation(path))->frame();
     if (!(m.lights == info.lights) || !(m.views == info.views))
       throw Error(

@@ -458,6 +458,9 @@ TEST_F(BadInput, CompareArgumentsSwapped) {
                   "btfgmm compare " + p("btf") + " " + p("m.btfgmm")});
   expect_refused(run("compare " + p("m.btfgmm") + " " + p("m.btfgmm")),
                  {p("m.btfgmm") + " is a file; give a folder of BTF images"});
+  // The BTF twice: the second is no model, and the fit that makes one is shown.
+  expect_refused(run("compare " + p("btf") + " " + p("btf")),
+                 {"is a folder of images, not a model", "btfgmm fit " + p("btf") + " -o"});
 }
 
 TEST_F(BadInput, RenderOutputInAFormatNotWritten) {

@@ -17,6 +17,7 @@
 #include "btfgmm/core/text.hpp"
 #include "btfgmm/io/dataset.hpp"
 #include "btfgmm/io/file_kind.hpp"
+#include "btfgmm/io/files.hpp"
 #include "btfgmm/io/image.hpp"
 #include "btfgmm/io/utia.hpp"
 #include "btfgmm/methods/registry.hpp"
@@ -132,6 +133,21 @@ TEST(Messages, AModelReaderSaysWhatTheFileIsAndWhatToDo) {
   EXPECT_NE(m.find("'photo.btfgmm' is a JPEG image, not a btfgmm model"), std::string::npos) << m;
   m = message("\x01\x02\x00", "junk.btfgmm");
   EXPECT_NE(m.find("does not start with the btfgmm magic bytes"), std::string::npos) << m;
+}
+
+TEST(Messages, AFileIsNamedFromItsFirstBytesBeforeItIsReadWhole) {
+  const fs::path dir = fresh_dir();
+  {
+    std::ofstream out(dir / "c.tar.gz", std::ios::binary);
+    out << std::string("\x1f\x8b\x08\x00", 4) << std::string(5000, 'x');
+  }
+  EXPECT_EQ(read_file_start(dir / "c.tar.gz", 512).size(), 512u);
+  EXPECT_EQ(read_file_start(dir / "c.tar.gz", 9000).size(), 5004u);
+  EXPECT_TRUE(read_file_start(dir, 512).empty());
+  EXPECT_TRUE(read_file_start(dir / "missing", 512).empty());
+  const std::string m = error_of([&] { load_representation(dir / "c.tar.gz"); });
+  EXPECT_NE(m.find("c.tar.gz' is a gzip archive, not a btfgmm model"), std::string::npos) << m;
+  fs::remove_all(dir);
 }
 
 TEST(Messages, AFolderGivenAsAModelIsNamedAndTheFitShown) {

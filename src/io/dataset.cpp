@@ -8,7 +8,6 @@
 
 #include <algorithm>
 #include <cstdint>
-#include <fstream>
 #include <map>
 #include <optional>
 #include <string_view>
@@ -67,11 +66,7 @@ Angles key(const Direction& d) {
 // The error for a file given as a BTF that is not a .zip: what it holds, where that is known
 // (io/file_kind.hpp), and what to give instead.
 Error not_a_btf(const fs::path& path) {
-  std::vector<std::uint8_t> head(512);
-  std::ifstream in(path, std::ios::binary);
-  in.read(reinterpret_cast<char*>(head.data()), std::streamsize(head.size()));
-  head.resize(std::size_t(std::max<std::streamsize>(in.gcount(), 0)));
-  const std::optional<FileKind> kind = identify_file(head);
+  const std::optional<FileKind> kind = identify_file(read_file_start(path, 512));
   using C = FileKind::Class;
   const std::string fix =
       !kind                       ? ""

@@ -142,6 +142,10 @@ void check_not_folder(const std::filesystem::path& path) {
 
 std::unique_ptr<Representation> load_representation(const std::filesystem::path& path) {
   check_not_folder(path);
+  // A file of another kind (an archive of images may be gigabytes) is named from its first
+  // bytes, before it is read whole: the reader refuses it as such.
+  const std::vector<std::uint8_t> start = read_file_start(path, 512);
+  if (identify_file(start)) read_representation(start, path.string());
   return read_representation(read_whole_file(path, "model file"), path.string());
 }
 
