@@ -135,7 +135,27 @@ void print_comparison(const ModelComparison& c) {
       q.ssim_window, q.ssim_window, q.ssim_window < 11 ? " (shrunk to the tile)" : "");
 }
 
+// A BTF is a folder or a .zip.
+bool is_btf_path(const std::string& path) {
+  std::error_code ec;
+  return fs::is_directory(path, ec) || (fs::is_regular_file(path, ec) && !is_model_path(path));
+}
+
+// The BTF comes first, then the models: a model first, with the BTF after it, is the order
+// reversed, and the message shows the command in the right order.
+void check_argument_order(const CompareOptions& o) {
+  if (!is_model_path(o.btf)) return;
+  std::vector<std::string> btfs, models{o.btf};
+  for (const std::string& m : o.models) (is_btf_path(m) ? btfs : models).push_back(m);
+  if (btfs.size() == 1)
+    throw Error(Error::Kind::kArgument,
+                fmt::format("the arguments are in the wrong order: '{}' is a model and '{}' the "
+                            "BTF; give the BTF first, then the models: btfgmm compare {} {}",
+                            o.btf, btfs[0], btfs[0], fmt::join(models, " ")));
+}
+
 void run_compare(const CompareOptions& o) {
+  check_argument_order(o);
   if (!o.report.empty()) check_output_folder(o.report, o.overwrite);
   const BtfSource src = BtfSource::open(o.btf);
   const BtfInfo& info = src.info();
@@ -151,11 +171,6 @@ void run_compare(const CompareOptions& o) {
       throw Error(Error::Kind::kIo,
                   fmt::format("model '{}' does not exist; give the path of a .btfgmm file written "
                               "by btfgmm fit",
-                              path));
-    if (!is_model_path(path))
-      throw Error(Error::Kind::kArgument,
-                  fmt::format("'{}' is not a model file; give the BTF first, then one or more "
-                              ".btfgmm models written by btfgmm fit",
                               path));
     const ModelFrame& m = models.emplace_back(load_representation(path))->frame();
     if (!(m.lights == info.lights) || !(m.views == info.views))
@@ -199,7 +214,7 @@ void run_compare(const CompareOptions& o) {
   nlohmann::json all = nlohmann::json::array();
   for (const auto& c : results) all.push_back(comparison_json(o.btf, c));
   if (o.json) {
-    std::cout << (results.size() == 1 ? all[0] : all).dump(2) << "\n";
+    std::cout << json_text(results.size() == 1 ? all[0] : all);
   } else {
     fmt::print("{}: {} lights x {} views, {}x{} pixels, {} data\n\n", o.btf, info.lights.size(),
                info.views.size(), info.width, info.height, to_string(info.format));
@@ -227,7 +242,7 @@ void run_compare(const CompareOptions& o) {
   }
   if (!o.report.empty()) {
     write_report(o.report, o.btf, results);
-    const std::string json = all.dump(2) + "\n";
+    const std::string json = json_text(all);
     btfgmm::write_file_atomically(
         fs::path(o.report) / "compare.json",
         std::span(reinterpret_cast<const std::uint8_t*>(json.data()), json.size()), "report");

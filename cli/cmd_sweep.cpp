@@ -234,7 +234,7 @@ void run_sweep_command(const SweepOptions& o) {
     s = run_sweep(tile, r);
   }
   const nlohmann::json j = sweep_json(o, tile, s);
-  const std::string text = j.dump(2) + "\n";
+  const std::string text = json_text(j);
   write_file_atomically(fs::path(o.out) / "sweep.json",
                         std::span(reinterpret_cast<const std::uint8_t*>(text.data()), text.size()),
                         "sweep");

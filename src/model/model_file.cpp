@@ -2,11 +2,14 @@
 #include <fmt/format.h>
 #include <zlib.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <optional>
 
 #include "btfgmm/core/error.hpp"
 #include "btfgmm/core/limits.hpp"
+#include "btfgmm/io/file_kind.hpp"
 #include "btfgmm/io/files.hpp"
 #include "btfgmm/model/model.hpp"
 #include "btfgmm/model/model_file.hpp"
@@ -100,23 +103,33 @@ struct Header {
   std::uint64_t payload = 0;
 };
 
-// Throws Error(kFormat) for an empty file or one that does not start with the magic bytes
-// (naming what it is where it is a known image).
+// Throws Error(kFormat) for an empty file or one that does not start with the magic bytes,
+// saying what it is instead (io/file_kind.hpp) and what to do with it.
 void check_magic(std::span<const std::uint8_t> bytes, const std::string& name) {
   if (bytes.empty())
     throw Error(Error::Kind::kFormat,
                 fmt::format("model file '{}' is empty (0 bytes); fit the model again", name));
-  if (bytes.size() < 8 || std::memcmp(bytes.data(), kMagic, 8) != 0) {
-    std::string what = "it does not start with the btfgmm magic bytes";
-    if (bytes.size() >= 4 && bytes[0] == 0x89 && bytes[1] == 'P' && bytes[2] == 'N')
-      what = "it is a PNG image";
-    else if (bytes.size() >= 3 && bytes[0] == 0xFF && bytes[1] == 0xD8)
-      what = "it is a JPEG image";
+  if (bytes.size() >= 8 && std::memcmp(bytes.data(), kMagic, 8) == 0) return;
+  const std::optional<FileKind> kind =
+      identify_file(bytes.first(std::min<std::size_t>(bytes.size(), 512)));
+  if (!kind)
     throw Error(Error::Kind::kFormat,
-                fmt::format("'{}' is not a btfgmm model file: {}; give a .btfgmm file written "
-                            "by 'btfgmm fit'",
-                            name, what));
-  }
+                fmt::format("'{}' is not a btfgmm model file: it does not start with the btfgmm "
+                            "magic bytes; give a .btfgmm file written by 'btfgmm fit'",
+                            name));
+  using C = FileKind::Class;
+  const std::string fix =
+      kind->kind == C::kArchive ? "extract it and fit the BTF images it holds: btfgmm fit FOLDER "
+                                  "-o model.btfgmm"
+      : kind->kind == C::kZip   ? fmt::format(
+                                      "if it holds a BTF (a Bonn zip, read in place), fit "
+                                        "it: btfgmm fit {} -o model.btfgmm",
+                                      name)
+      : kind->kind == C::kImage ? "a model is fitted to a folder of BTF images: btfgmm fit "
+                                  "FOLDER -o model.btfgmm"
+                                : "give a .btfgmm file written by 'btfgmm fit'";
+  throw Error(Error::Kind::kFormat,
+              fmt::format("'{}' is {}, not a btfgmm model; {}", name, kind->what, fix));
 }
 
 // The header, checked against the file: a version this btfgmm reads, the payload size, the

@@ -43,7 +43,10 @@ std::span<const MethodInfo> all_methods();
 // Throws Error(kArgument) for an unknown name, listing the methods (and the nearest name).
 const MethodInfo& find_method(std::string_view name);
 
-// Any method's model file: read (Error(kFormat) naming the file), written atomically.
+// Any method's model file: read (Error(kFormat) naming the file and, where it holds something
+// else, what: an archive, an image, ...), written atomically. Every command that reads a model
+// reads it by load_representation, which refuses a folder (Error(kArgument); a folder of
+// images: with the command that fits it).
 std::unique_ptr<Representation> read_representation(std::span<const std::uint8_t> bytes,
                                                     const std::string& name);
 std::unique_ptr<Representation> load_representation(const std::filesystem::path& path);
