@@ -40,6 +40,17 @@ class CentredData {
   std::size_t row_step() const { return std::max<std::size_t>(1, kBlockValues / cols()); }
   std::size_t col_step() const { return std::max<std::size_t>(1, kBlockValues / rows()); }
 
+  // Rows [r0, r0 + n) and columns [c0, c0 + m), centred, into the top-left of `buffer`
+  // (which holds at least n x m).
+  auto block(std::size_t r0, std::size_t n, std::size_t c0, std::size_t m, RowMatD& buffer) const {
+    auto b = buffer.topLeftCorner(Eigen::Index(n), Eigen::Index(m));
+    b = x_.block(Eigen::Index(r0), Eigen::Index(c0), Eigen::Index(n), Eigen::Index(m))
+            .cast<double>()
+            .rowwise() -
+        mean_.segment(Eigen::Index(c0), Eigen::Index(m));
+    return b;
+  }
+
   // f(block, first row, rows) for every block of rows [r0, r0 + n), centred, in order; and
   // f(block, first column, columns) for blocks of columns. One buffer serves every block: a
   // pass over the data allocates (and faults in) no new memory.
@@ -124,21 +135,53 @@ MatD row_gram(const CentredData& d, double& total) {
   return g;
 }
 
-// Xcᵀ u (cols x u.cols()), summed over contiguous blocks of rows.
+// Columns of the data in a slab of transpose_times: fixed, so that its sums do not depend on
+// the number of threads.
+constexpr std::size_t kSlabColumns = 1024;
+
+// The products below spread fixed pieces of the work over OpenMP's threads, each converting
+// its own blocks; Eigen's products inside a parallel region run on the calling thread (its
+// own threads, at 26 columns and on shared cores, cost more than they gain).
+
+// Xcᵀ u (cols x u.cols()): each slab of columns summed over blocks of rows, in order.
 MatD transpose_times(const CentredData& d, const MatD& u) {
-  MatD out = MatD::Zero(Eigen::Index(d.cols()), u.cols());
-  d.for_row_blocks([&](const auto& b, Eigen::Index r0, Eigen::Index n) {
-    out.noalias() += b.transpose() * u.middleRows(r0, n);
-  });
+  MatD out(Eigen::Index(d.cols()), u.cols());
+  const std::ptrdiff_t slabs = std::ptrdiff_t((d.cols() + kSlabColumns - 1) / kSlabColumns);
+#pragma omp parallel
+  {
+    const std::size_t step = std::max<std::size_t>(1, kBlockValues / kSlabColumns);
+    RowMatD buffer(Eigen::Index(std::min(step, d.rows())), Eigen::Index(kSlabColumns));
+#pragma omp for schedule(dynamic, 1)
+    for (std::ptrdiff_t k = 0; k < slabs; ++k) {
+      const std::size_t c0 = std::size_t(k) * kSlabColumns,
+                        m = std::min(kSlabColumns, d.cols() - c0);
+      auto slab = out.middleRows(Eigen::Index(c0), Eigen::Index(m));
+      slab.setZero();
+      for (std::size_t r0 = 0; r0 < d.rows(); r0 += step) {
+        const std::size_t n = std::min(step, d.rows() - r0);
+        slab.noalias() += d.block(r0, n, c0, m, buffer).transpose() *
+                          u.middleRows(Eigen::Index(r0), Eigen::Index(n));
+      }
+    }
+  }
   return out;
 }
 
-// Xc v (rows x v.cols()), by contiguous blocks of rows.
+// Xc v (rows x v.cols()), by blocks of rows, each writing its own rows.
 MatD times(const CentredData& d, const MatD& v) {
   MatD out(Eigen::Index(d.rows()), v.cols());
-  d.for_row_blocks([&](const auto& b, Eigen::Index r0, Eigen::Index n) {
-    out.middleRows(r0, n).noalias() = b * v;
-  });
+  const std::size_t step = d.row_step();
+  const std::ptrdiff_t blocks = std::ptrdiff_t((d.rows() + step - 1) / step);
+#pragma omp parallel
+  {
+    RowMatD buffer(Eigen::Index(std::min(step, d.rows())), Eigen::Index(d.cols()));
+#pragma omp for schedule(dynamic, 1)
+    for (std::ptrdiff_t k = 0; k < blocks; ++k) {
+      const std::size_t r0 = std::size_t(k) * step, n = std::min(step, d.rows() - r0);
+      out.middleRows(Eigen::Index(r0), Eigen::Index(n)).noalias() =
+          d.block(r0, n, 0, d.cols(), buffer) * v;
+    }
+  }
   return out;
 }
 
