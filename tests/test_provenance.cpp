@@ -228,22 +228,27 @@ TEST(Provenance, EveryMethodsFileRecordsItsDataAndFit) {
   }
 }
 
-// A BTF on disk for run_fit, removed with the test.
+// Two BTFs on disk for run_fit (made once for all the tests), and a folder of each test's own.
 class ProvenanceFit : public ::testing::Test {
  protected:
+  static void SetUpTestSuite() {
+    data_ = fs::temp_directory_path() / ("btfgmm_prov_data_" + std::to_string(::getpid()));
+    fs::remove_all(data_);
+    write_utia(small_tile("corduroy"), data_ / "btf");
+    write_utia(small_tile("knit"), data_ / "knit");
+  }
+  static void TearDownTestSuite() { fs::remove_all(data_); }
   void SetUp() override {
     dir_ = fs::temp_directory_path() /
            ("btfgmm_prov_" + std::to_string(::getpid()) + "_" +
             ::testing::UnitTest::GetInstance()->current_test_info()->name());
     fs::remove_all(dir_);
     fs::create_directories(dir_);
-    write_utia(small_tile("corduroy"), dir_ / "btf");
-    write_utia(small_tile("knit"), dir_ / "knit");
   }
   void TearDown() override { fs::remove_all(dir_); }
   FitRequest request(int iterations, const std::string& out) const {
     FitRequest r;
-    r.input = (dir_ / "btf").string();
+    r.input = (data_ / "btf").string();
     r.tile = {1, 2, 6, 5};
     r.config.components = 8;
     r.config.seed = 4;
@@ -251,6 +256,7 @@ class ProvenanceFit : public ::testing::Test {
     r.output = (dir_ / out).string();
     return r;
   }
+  static inline fs::path data_;
   fs::path dir_;
 };
 
@@ -259,9 +265,9 @@ TEST_F(ProvenanceFit, AFitRecordsItsDataAndItsLog) {
   const BtfModel m = load_model(dir_ / "m.btfgmm");
   const Provenance& p = m.provenance;
   ASSERT_TRUE(p.recorded);
-  EXPECT_EQ(p.data.source.name, (dir_ / "btf").string());
+  EXPECT_EQ(p.data.source.name, (data_ / "btf").string());
   EXPECT_EQ(p.data.source.image_width, 8);
-  const Btf tile = BtfSource::open(dir_ / "btf").load({1, 2, 6, 5});
+  const Btf tile = BtfSource::open(data_ / "btf").load({1, 2, 6, 5});
   EXPECT_EQ(p.data.content_hash, tile_content_hash(tile));
   EXPECT_EQ(p.fit.runs, 1u);
   ASSERT_EQ(p.fit.iterations.size(), 3u);
@@ -361,10 +367,10 @@ TEST_F(ProvenanceFit, AContinuationRefusesWhatCannotGoOn) {
   FitRequest fewer = continue_request(dir_ / "four.btfgmm", "", 3, out);
   EXPECT_NE(error_of([&] { run_fit(fewer); }).find("has already run 4 iterations"),
             std::string::npos);
-  FitRequest knit = continue_request(dir_ / "four.btfgmm", (dir_ / "knit").string(), 6, out);
+  FitRequest knit = continue_request(dir_ / "four.btfgmm", (data_ / "knit").string(), 6, out);
   const std::string msg = error_of([&] { run_fit(knit); });
   EXPECT_NE(msg.find("is not what model"), std::string::npos) << msg;
-  EXPECT_NE(msg.find((dir_ / "btf").string()), std::string::npos) << msg;
+  EXPECT_NE(msg.find((data_ / "btf").string()), std::string::npos) << msg;
   const fs::path data = BTFGMM_TEST_DATA;
   EXPECT_NE(error_of([&] {
               continue_request(data / "golden_v2_gm.btfgmm", "", 6, out);
