@@ -400,8 +400,8 @@ void register_fit(CLI::App& app, Commands& commands) {
   f->add_option("--degree", fit->degree, "plm-rf: the degree of the per-image polynomial")
       ->check(CLI::Range(std::size_t(0), std::size_t(64)));
   f->add_option("--iterations", fit->iterations,
-                "Maximum EM iterations (gm, default 40), re-assignment rounds (lpca) or "
-                "Levenberg-Marquardt steps (plm-rf)")
+                "Maximum EM iterations (gm, default 40; with --resume or --continue, the total "
+                "to go on to), re-assignment rounds (lpca) or Levenberg-Marquardt steps (plm-rf)")
       ->check(CLI::Range(1, 100000));
   f->add_option("--epsilon", fit->epsilon, "Stop when the relative gain of L is below this")
       ->check(CLI::Range(0.0, 1.0))
