@@ -246,6 +246,9 @@ TEST_F(CliProvenance, ContinueGoesOnWithAFinishedMixture) {
   // Other methods take none of the mixture's EM options.
   r = fit("--method pca-btf --components 2 --log " + p("x.jsonl") + " -o " + p("p2.btfgmm"));
   EXPECT_TRUE(has(r.err, "--log cannot apply to --method pca-btf")) << r.err;
+  r = fit("--method pca-btf --components 2 --epsilon 0 -o " + p("p2.btfgmm"));
+  EXPECT_TRUE(has(r.err, "--epsilon cannot apply to --method pca-btf")) << r.err;
+  EXPECT_FALSE(fs::exists(p("p2.btfgmm")));
 }
 
 }  // namespace
