@@ -225,7 +225,7 @@ void run_method_fit(const FitOptions& o) {
   s.seed = o.seed;
   s.threads = o.threads;
   // 8 bits a factor by default: at most 0.1 dB below f32 on generated tiles (docs/METHODS.md).
-  s.encoding = o.precision.empty() ? btfgmm::FactorEncoding::kQ8
+  s.encoding = o.precision.empty() ? method.fit_encoding
                                    : btfgmm::parse_factor_encoding(o.precision, "--precision");
   check_output_file(o.out, o.overwrite);
   const auto t0 = Clock::now();

@@ -60,7 +60,7 @@ std::vector<Setting> sweep_settings(const ModelFrame& frame, const SweepRequest&
     const std::vector<MethodSettings> ladder =
         own != r.ladders.end() ? own->second : m->ladder(frame);
     for (MethodSettings s : ladder) {
-      s.encoding = r.encoding;
+      s.encoding = r.encoding.value_or(m->smallest_encoding);
       s.threads = r.threads;
       s.seed = r.seed;
       if (r.iterations) s.iterations = r.iterations;

@@ -59,7 +59,8 @@ const std::vector<MethodInfo>& table() {
   static const std::vector<MethodInfo> methods = {
       {"gm", "Gaussian mixture of product components over (x, y, light, view, RGB)",
        "the paper btfgmm started from, Eq. (1)-(11)", "--components M (600), --iterations (40)",
-       fit_gaussian_mixture, read_gaussian_mixture, mixture_ladder},
+       fit_gaussian_mixture, read_gaussian_mixture, mixture_ladder, FactorEncoding::kF32,
+       FactorEncoding::kF16},
       {"pca-btf", "PCA BTF: one PCA of all images", "Koudelka, Magda, Belhumeur, Kriegman 2003",
        "--components c (eigen-images, 61)", fit_pca_btf, read_pca_btf, pca_btf_ladder},
       {"pca-rf", "PCA RF: a PCA of each view's images", "Sattler, Sarlette, Klein 2003",

@@ -31,6 +31,11 @@ struct MethodInfo {
   // Settings that span compression ratios from about 1:5 to 1:500 on a tile of this frame
   // (as Table 2 counts them), smallest model first; `sweep` fits each.
   std::function<std::vector<MethodSettings>(const ModelFrame& frame)> ladder;
+  // The storage `fit` uses when none is asked (the mixture's f32 keeps it exact, so that a
+  // fit can go on from its file), and the smallest the method takes: what `sweep` compares,
+  // every file as small as its precision allows (docs/METHODS.md, "Storage").
+  FactorEncoding fit_encoding = FactorEncoding::kQ8;
+  FactorEncoding smallest_encoding = FactorEncoding::kQ8;
 };
 
 // Every method, the Gaussian mixture ("gm") first.
