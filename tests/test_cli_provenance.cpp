@@ -124,7 +124,7 @@ TEST_F(CliProvenance, OlderModelsAreComparedWithANote) {
   CliRun r = run("compare " + p("corduroy") + " " + (data / "golden_v2_gm.btfgmm").string());
   ASSERT_EQ(r.status, 0) << r.err;
   EXPECT_TRUE(has(r.err, "note: ") && has(r.err, "records no provenance")) << r.err;
-  r = run("info " + (data / "golden_v2_pca_btf.btfgmm").string());
+  r = run("info " + (data / "golden_v2_pca-btf.btfgmm").string());
   ASSERT_EQ(r.status, 0) << r.err;
   EXPECT_TRUE(has(r.out, "btfgmm format 2")) << r.out;
   EXPECT_TRUE(has(r.out, "provenance   none recorded")) << r.out;

@@ -153,29 +153,28 @@ TEST(Provenance, MalformedFieldsAreRefusedByName) {
   EXPECT_NE(refused(30, &longer, 4).find("1 bytes after its last field"), std::string::npos);
 }
 
-// Files written before provenance: version 1 (the mixture), version 2 (a mixture and a PCA
-// BTF, written by the btfgmm before this one): read with none recorded, to the same values.
+// Files written before provenance: version 1 (the mixture), version 2 (a mixture here, every
+// other method in test_methods.cpp's golden files): read with none recorded, to the same
+// values.
 TEST(Provenance, OlderFilesReadWithNoneRecorded) {
   const fs::path data = BTFGMM_TEST_DATA;
   EXPECT_FALSE(load_model(data / "golden_v1.btfgmm").provenance.recorded);
   const auto gm = load_representation(data / "golden_v2_gm.btfgmm");
-  const auto pca = load_representation(data / "golden_v2_pca_btf.btfgmm");
   EXPECT_FALSE(gm->provenance().recorded);
-  EXPECT_FALSE(pca->provenance().recorded);
-  EXPECT_EQ(pca->method(), "pca-btf");
   const Query q[] = {{1.5, 2.25, {30, 90}, {45, 72}}, {0, 0, {0, 0}, {0, 0}}};
-  // As `btfgmm eval` of the btfgmm that wrote them printed them.
-  const float want_gm[6] = {144.5882f, 80.7728f, 58.2584f, 143.0921f, 83.0417f, 63.0924f};
-  const float want_pca[6] = {144.5701f, 84.4511f, 64.5534f, 132.3681f, 74.6672f, 54.6069f};
+  // As `btfgmm eval` of the btfgmm that wrote it printed them.
+  const float want[6] = {144.5882f, 80.7728f, 58.2584f, 143.0921f, 83.0417f, 63.0924f};
   float rgb[6];
   gm->predict(q, rgb);
-  for (int i = 0; i < 6; ++i) EXPECT_NEAR(rgb[i], want_gm[i], 1e-4) << i;
-  pca->predict(q, rgb);
-  for (int i = 0; i < 6; ++i) EXPECT_NEAR(rgb[i], want_pca[i], 1e-4) << i;
-  // Written again: version 3, an empty provenance, the same payload.
-  const auto again = representation_file_bytes(*pca);
-  EXPECT_EQ(again[8], 3);
-  EXPECT_FALSE(read_representation(again, "again")->provenance().recorded);
+  for (int i = 0; i < 6; ++i) EXPECT_NEAR(rgb[i], want[i], 1e-4) << i;
+  for (const char* method : {"pca-btf", "pca-rf", "lpca", "ptm-rf", "plm-rf"}) {
+    const auto m = load_representation(data / (std::string("golden_v2_") + method + ".btfgmm"));
+    EXPECT_FALSE(m->provenance().recorded) << method;
+    // Written again: version 3, an empty provenance.
+    const auto again = representation_file_bytes(*m);
+    EXPECT_EQ(again[8], 3);
+    EXPECT_FALSE(read_representation(again, "again")->provenance().recorded) << method;
+  }
 }
 
 TEST(Provenance, DataIsCheckedAgainstTheRecord) {
@@ -377,7 +376,7 @@ TEST_F(ProvenanceFit, AContinuationRefusesWhatCannotGoOn) {
             }).find("records no provenance"),
             std::string::npos);
   EXPECT_NE(error_of([&] {
-              continue_request(data / "golden_v2_pca_btf.btfgmm", "", 6, out);
+              continue_request(data / "golden_v2_pca-btf.btfgmm", "", 6, out);
             }).find("holds a 'pca-btf' model"),
             std::string::npos);
   EXPECT_FALSE(fs::exists(out));
