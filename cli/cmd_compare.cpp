@@ -19,6 +19,7 @@
 #include "btfgmm/report/report.hpp"
 #include "cli_util.hpp"
 #include "commands.hpp"
+#include "provenance_text.hpp"
 
 namespace btfgmm::cli {
 namespace {
@@ -29,7 +30,7 @@ struct CompareOptions {
   std::string btf, report;
   std::vector<std::string> models;
   std::size_t worst = 3;
-  bool json = false, overwrite = false, quiet = false;
+  bool json = false, overwrite = false, quiet = false, force = false;
 };
 
 bool same_tile(const Tile& a, const Tile& b) {
@@ -154,6 +155,13 @@ void check_argument_order(const CompareOptions& o) {
                             o.btf, btfs[0], btfs[0], fmt::join(models, " ")));
 }
 
+// A model's tile of the data against the data it records (check_fitted_data).
+DataMatch check_data(const Representation& model, const std::string& name, const Btf& tile,
+                     const BtfInfo& info, const CompareOptions& o) {
+  return enforce_data_check(check_fitted_data(model, name, tile, {o.btf, info.width, info.height}),
+                            o.force, o.quiet, "compare");
+}
+
 void run_compare(const CompareOptions& o) {
   check_argument_order(o);
   if (!o.report.empty()) check_output_folder(o.report, o.overwrite);
@@ -176,10 +184,11 @@ void run_compare(const CompareOptions& o) {
     if (!(m.lights == info.lights) || !(m.views == info.views))
       throw Error(
           Error::Kind::kArgument,
-          fmt::format("{}: the model was fitted to {} lights and {} views, but {} has {} "
+          fmt::format("{}: the model was fitted to {} lights and {} views of {}, but {} has {} "
                       "lights and {} views{}; compare a model with the BTF it was fitted "
                       "to",
-                      path, describe_set(m.lights), describe_set(m.views), o.btf,
+                      path, describe_set(m.lights), describe_set(m.views),
+                      describe_source(models.back()->provenance(), m.origin), o.btf,
                       describe_set(info.lights), describe_set(info.views),
                       m.lights.size() == info.lights.size() && m.views.size() == info.views.size()
                           ? " (same counts, other directions)"
@@ -198,6 +207,14 @@ void run_compare(const CompareOptions& o) {
                               path, tile.width, tile.height, tile.x, tile.y, info.width,
                               info.height, o.btf));
   }
+  // Then each model's tile of the data is the data it was fitted to, by its provenance.
+  std::vector<DataMatch> matches;
+  for (std::size_t k = 0; k < models.size(); ++k) {
+    const ModelFrame& m = models[k]->frame();
+    const Tile tile{m.origin.x, m.origin.y, m.width, m.height};
+    if (!tile_data || !same_tile(tile_data->origin(), tile)) tile_data = src.load(tile);
+    matches.push_back(check_data(*models[k], o.models[k], *tile_data, info, o));
+  }
   for (std::size_t k = 0; k < models.size(); ++k) {
     const auto t0 = Clock::now();
     const ModelFrame& m = models[k]->frame();
@@ -212,7 +229,10 @@ void run_compare(const CompareOptions& o) {
   }
 
   nlohmann::json all = nlohmann::json::array();
-  for (const auto& c : results) all.push_back(comparison_json(o.btf, c));
+  for (std::size_t k = 0; k < results.size(); ++k) {
+    all.push_back(comparison_json(o.btf, results[k]));
+    all.back()["data_match"] = std::string(to_string(matches[k]));
+  }
   if (o.json) {
     std::cout << json_text(results.size() == 1 ? all[0] : all);
   } else {
@@ -270,6 +290,8 @@ void register_compare_commands(CLI::App& app, Commands& commands) {
       ->check(CLI::Range(std::size_t(0), std::size_t(100)))
       ->capture_default_str();
   c->add_flag("--overwrite", opt->overwrite, "Replace the files of a non-empty report folder");
+  c->add_flag("--force", opt->force,
+              "Compare even where a model's provenance records other data than the BTF's tile");
   c->add_flag("-q,--quiet", opt->quiet, "No progress on stderr");
 
   commands.push_back({c, [opt] { run_compare(*opt); }});

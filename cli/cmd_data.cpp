@@ -7,10 +7,12 @@
 
 #include "btfgmm/btfgmm.hpp"
 #include "btfgmm/core/text.hpp"
+#include "btfgmm/io/files.hpp"
 #include "btfgmm/model/model.hpp"
 #include "btfgmm/model/model_file.hpp"
 #include "cli_util.hpp"
 #include "commands.hpp"
+#include "provenance_text.hpp"
 
 namespace btfgmm::cli {
 namespace {
@@ -134,14 +136,21 @@ void info_btf(const std::string& path, bool json) {
 }
 
 void info_model(const std::string& path, bool json) {
-  const auto r = btfgmm::load_representation(path);
+  const std::vector<std::uint8_t> file = btfgmm::read_whole_file(path, "model file");
+  const auto r = btfgmm::read_representation(file, path);
+  const std::uint32_t version = btfgmm::open_model_file(file, path).version;
   const btfgmm::ModelFrame& m = r->frame();
-  const std::uint64_t bytes = fs::file_size(path);
+  const std::uint64_t bytes = file.size();
+  const std::size_t requested =
+      r->method() == btfgmm::kMixtureMethod
+          ? dynamic_cast<const btfgmm::GaussianMixture&>(*r).model().settings.components
+          : 0;
   if (json) {
     nlohmann::json j;
     j["path"] = path;
     j["kind"] = "model";
-    j["format_version"] = btfgmm::kModelFormatVersion;
+    j["format_version"] = version;
+    j["provenance"] = provenance_json(r->provenance(), requested);
     j["tile"] = {m.origin.x, m.origin.y, m.width, m.height};
     j["lights"] = m.lights.size();
     j["views"] = m.views.size();
@@ -154,12 +163,13 @@ void info_model(const std::string& path, bool json) {
     return;
   }
   fmt::print("{}\n", path);
-  fmt::print("  model        btfgmm format {}\n", btfgmm::kModelFormatVersion);
+  fmt::print("  model        btfgmm format {}\n", version);
   fmt::print("  tile         {}x{} pixels at ({}, {}) of the source, {} data\n", m.width, m.height,
              m.origin.x, m.origin.y, btfgmm::to_string(m.format));
   fmt::print("  lights       {}\n", describe_set(m.lights));
   fmt::print("  views        {}\n", describe_set(m.views));
   print_model_lines(*r);
+  print_provenance_lines(r->provenance(), m.origin);
   fmt::print("  file         {} bytes ({})\n", bytes, human_bytes(double(bytes)));
   fmt::print(
       "  compression  1:{:.1f} by the paper's count (Table 2), 1:{:.1f} by the file's "

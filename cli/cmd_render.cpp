@@ -17,6 +17,7 @@
 #include "btfgmm/render/render.hpp"
 #include "cli_util.hpp"
 #include "commands.hpp"
+#include "provenance_text.hpp"
 #include "tile_option.hpp"
 
 namespace btfgmm::cli {
@@ -33,7 +34,7 @@ struct RenderOptions {
   double intensity = 1.0, fov = 30.0, repeat = 4.0, exposure = 0.0, tolerance = 0.1;
   double difference_scale = 10.0;
   int threads = 0;
-  bool overwrite = false, json = false, quiet = false;
+  bool overwrite = false, json = false, quiet = false, force = false;
 };
 
 // A world direction "THETA,PHI": theta from +z in [0, 180] (a light or a camera may be
@@ -61,6 +62,37 @@ btfgmm::Btf load_data(const std::string& path, const std::string& tile,
   const btfgmm::BtfSource src = btfgmm::BtfSource::open(path);
   const btfgmm::Tile t = tile.empty() ? fallback : tile_option(src, tile, quiet);
   return src.load(t);
+}
+
+bool same_tile(const btfgmm::Tile& a, const btfgmm::Tile& b) {
+  return a.x == b.x && a.y == b.y && a.width == b.width && a.height == b.height;
+}
+
+// --compare's data: the tile --tile asks for (the model's own by default), checked against the
+// data the model records (its own tile, read for that where --tile asks for another).
+btfgmm::Btf load_compared_data(const btfgmm::Representation& model, const RenderOptions& o,
+                               btfgmm::DataMatch& match) {
+  const btfgmm::BtfSource src = btfgmm::BtfSource::open(o.compare);
+  const btfgmm::BtfInfo& info = src.info();
+  const btfgmm::Tile own = model.frame().origin;
+  const btfgmm::Tile t = o.tile.empty() ? own : tile_option(src, o.tile, o.quiet);
+  btfgmm::Btf data = src.load(t);
+  const bool quiet = o.quiet || o.json;
+  if (own.x + own.width > info.width || own.y + own.height > info.height) {
+    match = enforce_data_check(
+        {btfgmm::DataMatch::kOtherContent,
+         fmt::format("'{}' is not the data '{}' was fitted to: the model records {}, outside "
+                     "the {}x{} images of '{}'",
+                     o.compare, o.input, btfgmm::describe_source(model.provenance(), own),
+                     info.width, info.height, o.compare)},
+        o.force, quiet, "render");
+    return data;
+  }
+  const btfgmm::DataSource source{o.compare, info.width, info.height};
+  match = enforce_data_check(
+      btfgmm::check_fitted_data(model, o.input, same_tile(t, own) ? data : src.load(own), source),
+      o.force, quiet, "render");
+  return data;
 }
 
 nlohmann::json stats_json(const btfgmm::Rendering& r) {
@@ -126,10 +158,11 @@ void run_render(const RenderOptions& o) {
   const auto t0 = Clock::now();
   std::shared_ptr<const btfgmm::Representation> model;
   std::optional<btfgmm::Btf> data;
+  btfgmm::DataMatch match = btfgmm::DataMatch::kSame;
   if (model_input) {
     model = btfgmm::load_representation(o.input);
     if (!o.compare.empty()) {
-      data = load_data(o.compare, o.tile, model->frame().origin, o.quiet);
+      data = load_compared_data(*model, o, match);
       if (data->width() != model->frame().width || data->height() != model->frame().height)
         throw Error(Error::Kind::kArgument,
                     fmt::format("the data tile is {}x{} pixels and the model's {}x{}: compare the "
@@ -194,6 +227,7 @@ void run_render(const RenderOptions& o) {
     const btfgmm::Image fig =
         btfgmm::comparison_figure(*data_img, *model_img, c, o.difference_scale);
     btfgmm::write_picture(o.out, fig.width, fig.height, fig.rgb);
+    j["data_match"] = std::string(btfgmm::to_string(match));
     j["rmse"] = c.rmse;
     j["psnr_db"] = c.psnr;
     j["ssim"] = c.ssim;
@@ -327,6 +361,8 @@ void register_render_commands(CLI::App& app, Commands& commands) {
                 "quality 95) or .exr (linear values, the sRGB levels decoded)")
       ->required();
   r->add_flag("--overwrite", ro->overwrite, "Replace an existing file");
+  r->add_flag("--force", ro->force,
+              "With --compare: render even where the model's provenance records other data");
   r->add_flag("--json", ro->json, "Timings and metrics as one JSON object on stdout");
   r->add_flag("-q,--quiet", ro->quiet, "No summary on stderr");
   commands.push_back({r, [ro] { run_render(*ro); }});

@@ -225,6 +225,7 @@ void run_sweep_command(const SweepOptions& o) {
     throw Error(Error::Kind::kIo, fmt::format("cannot create the folder '{}': {}; check the path "
                                               "and its permissions",
                                               o.out, ec.message()));
+  r.source = {o.btf, src.info().width, src.info().height};
   ProgressPrinter printer;
   if (!o.quiet) r.progress = [&](const SweepProgress& p) { printer(p); };
   r.stop = &g_stop;

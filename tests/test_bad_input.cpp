@@ -314,10 +314,10 @@ TEST_F(BadInput, ModelBitFlipped) {
 TEST_F(BadInput, ModelOfANewerVersion) {
   fit();
   std::string bytes = read_bytes(p("m.btfgmm"));
-  bytes[8] = 3;  // the format version, u32 little-endian at byte 8
+  bytes[8] = 4;  // the format version, u32 little-endian at byte 8
   write_bytes(p("new.btfgmm"), bytes);
   expect_model_refused(p("new.btfgmm"),
-                       {p("new.btfgmm"), "format version 3", "use a newer btfgmm"});
+                       {p("new.btfgmm"), "format version 4", "use a newer btfgmm"});
 }
 
 TEST_F(BadInput, ModelOfZeroBytes) {
@@ -674,19 +674,19 @@ std::vector<std::uint8_t> patched_model(std::size_t offset, const void* value, s
 }
 
 TEST(Limits, ModelTileAndOriginOutOfRange) {
-  // The payload starts at byte 24 with the method tag (u32 2, "gm"), then width, height
-  // (u32) at byte 30, origin x, y (i32) at byte 38.
+  // The payload starts at byte 24 with the method tag (u32 2, "gm"), then the provenance's
+  // size (u32 0: none recorded), width, height (u32) at byte 34, origin x, y (i32) at byte 42.
   const std::uint32_t big[2] = {65536, 65536};
   std::string msg =
-      error_of([&] { btfgmm::deserialize_model(patched_model(30, big, 8), "big.btfgmm"); });
+      error_of([&] { btfgmm::deserialize_model(patched_model(34, big, 8), "big.btfgmm"); });
   EXPECT_NE(msg.find("'big.btfgmm' is invalid: tile size 65536x65536 is out of range"),
             std::string::npos)
       << msg;
   const std::int32_t far[2] = {2147483647, 0};
-  msg = error_of([&] { btfgmm::deserialize_model(patched_model(38, far, 8), "far.btfgmm"); });
+  msg = error_of([&] { btfgmm::deserialize_model(patched_model(42, far, 8), "far.btfgmm"); });
   EXPECT_NE(msg.find("origin (2147483647, 0) is outside any image"), std::string::npos) << msg;
   const std::int32_t negative[2] = {0, -1};
-  msg = error_of([&] { btfgmm::deserialize_model(patched_model(38, negative, 8), "n.btfgmm"); });
+  msg = error_of([&] { btfgmm::deserialize_model(patched_model(42, negative, 8), "n.btfgmm"); });
   EXPECT_NE(msg.find("origin (0, -1)"), std::string::npos) << msg;
 }
 

@@ -108,7 +108,7 @@ TEST(Messages, IdentifiesCommonFilesByTheirFirstBytes) {
     EXPECT_EQ(k->what, c.what);
   }
   // A btfgmm model, and bytes of no known kind, are none of these.
-  EXPECT_FALSE(identify_file(model_file_bytes("gm", 0, bytes_of("", 64))).has_value());
+  EXPECT_FALSE(identify_file(model_file_bytes("gm", 0, Provenance{}, bytes_of("", 64))).has_value());
   EXPECT_FALSE(identify_file(bytes_of("\x01\x02\x03\x00\xfe", 64)).has_value());
   EXPECT_FALSE(identify_file({}).has_value());
   EXPECT_EQ(unread_image_format_from_name("a.TIFF"), "TIFF");

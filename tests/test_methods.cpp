@@ -59,7 +59,7 @@ TEST(Methods, UnknownNamesAreRefusedWithTheListAndASuggestion) {
 
 // A file with the payload of `method` replaced by `payload`, checksum made right.
 std::vector<std::uint8_t> file_of(std::string_view method, std::span<const std::uint8_t> payload) {
-  return model_file_bytes(method, 0, payload);
+  return model_file_bytes(method, 0, {}, payload);
 }
 
 TEST(Methods, TheMethodTagIsCheckedAndAnUnknownOneNamed) {

@@ -2,6 +2,7 @@
 #include "btfgmm/methods/registry.hpp"
 
 #include <fmt/format.h>
+#include <omp.h>
 
 #include <algorithm>
 #include <array>
@@ -80,7 +81,42 @@ const std::vector<MethodInfo>& table() {
   return methods;
 }
 
+// The settings a fit was asked for, as its provenance records them: those set (a size left
+// at 0 took the method's default, which its size text gives), the seed, the encoding and
+// the threads.
+std::vector<std::pair<std::string, std::string>> settings_record(const MethodInfo& method,
+                                                                 const MethodSettings& s) {
+  std::vector<std::pair<std::string, std::string>> out = {{"method", std::string(method.name)}};
+  auto add = [&](const char* name, std::size_t v) {
+    if (v) out.emplace_back(name, std::to_string(v));
+  };
+  add("components", s.components);
+  add("clusters", s.clusters);
+  add("degree", s.degree);
+  add("iterations", std::size_t(std::max(s.iterations, 0)));
+  out.emplace_back("seed", std::to_string(s.seed));
+  out.emplace_back("precision", std::string(to_string(s.encoding)));
+  out.emplace_back("threads", std::to_string(s.threads > 0 ? s.threads : omp_get_max_threads()));
+  return out;
+}
+
 }  // namespace
+
+std::unique_ptr<Representation> fit_and_record(const MethodInfo& method, const Btf& tile,
+                                               const MethodSettings& settings,
+                                               const DataFingerprint& data) {
+  const auto t0 = Clock::now();
+  std::unique_ptr<Representation> r = method.fit(tile, settings);
+  Provenance p = r->provenance();  // the mixture's holds its EM log
+  p.recorded = true;
+  p.data = data;
+  p.fit.settings = settings_record(method, settings);
+  p.fit.settings.emplace_back("size", r->size_text());
+  p.fit.seconds = seconds_since(t0);
+  p.fit.runs = 1;
+  r->set_provenance(std::move(p));
+  return r;
+}
 
 std::span<const MethodInfo> all_methods() {
   return table();
@@ -100,7 +136,11 @@ std::unique_ptr<Representation> read_representation(std::span<const std::uint8_t
                                                     const std::string& name) {
   const ModelFileContents c = open_model_file(bytes, name);
   for (const MethodInfo& m : table())
-    if (m.name == c.method) return m.read(c.payload, c.flags, name);
+    if (m.name == c.method) {
+      std::unique_ptr<Representation> r = m.read(c.payload, c.flags, name);
+      r->set_provenance(c.provenance);
+      return r;
+    }
   throw Error(Error::Kind::kFormat,
               fmt::format("model file '{}' holds a '{}' model, a method this btfgmm does not "
                           "know; use a newer btfgmm",
@@ -151,7 +191,7 @@ std::unique_ptr<Representation> load_representation(const std::filesystem::path&
 }
 
 std::vector<std::uint8_t> representation_file_bytes(const Representation& r) {
-  return model_file_bytes(r.method(), r.file_flags(), r.payload());
+  return model_file_bytes(r.method(), r.file_flags(), r.provenance(), r.payload());
 }
 
 std::uint64_t save_representation(const Representation& r, const std::filesystem::path& path) {

@@ -246,9 +246,14 @@ std::vector<std::uint8_t> mixture_payload(const BtfModel& m) {
 }
 
 std::vector<std::uint8_t> model_file_bytes(std::string_view method, std::uint32_t flags,
+                                           const Provenance& provenance,
                                            std::span<const std::uint8_t> payload) {
   Writer body;
   body.text(std::string(method));
+  Writer section;
+  if (provenance.recorded) detail::put_provenance(section, provenance);
+  body.put<std::uint32_t>(std::uint32_t(section.bytes.size()));
+  body.bytes.insert(body.bytes.end(), section.bytes.begin(), section.bytes.end());
   body.bytes.insert(body.bytes.end(), payload.begin(), payload.end());
   std::vector<std::uint8_t> out(kMagic, kMagic + 8);
   Writer h;
@@ -299,12 +304,24 @@ ModelFileContents open_model_file(std::span<const std::uint8_t> bytes, const std
   for (char ch : c.method)
     if (!((ch >= 'a' && ch <= 'z') || (ch >= '0' && ch <= '9') || ch == '-'))
       r.fail("the method name holds a character other than a-z, 0-9 and '-'");
+  if (header.version >= 3) {  // the provenance section, empty where none was recorded
+    const auto size = r.get<std::uint32_t>("provenance size");
+    if (size > r.remaining())
+      r.fail(fmt::format("a provenance of {} bytes, more than the file holds", size));
+    if (size > 0) {
+      Reader pr(c.payload.subspan(r.pos(), size), "model file", name, "fit the model again");
+      c.provenance = detail::get_provenance(pr);
+    }
+    c.payload = c.payload.subspan(r.pos() + size);
+    return c;
+  }
   c.payload = c.payload.subspan(r.pos());
   return c;
 }
 
 std::vector<std::uint8_t> serialize_model(const BtfModel& m) {
-  return model_file_bytes(kMixtureMethod, std::uint32_t(m.precision), mixture_payload(m));
+  return model_file_bytes(kMixtureMethod, std::uint32_t(m.precision), m.provenance,
+                          mixture_payload(m));
 }
 
 BtfModel deserialize_model(std::span<const std::uint8_t> bytes, const std::string& name) {
@@ -314,7 +331,9 @@ BtfModel deserialize_model(std::span<const std::uint8_t> bytes, const std::strin
                 fmt::format("model file '{}' holds a '{}' model, not a Gaussian mixture; read it "
                             "with load_representation (methods/registry.hpp)",
                             name, c.method));
-  return read_mixture_payload(c.payload, c.flags, name);
+  BtfModel m = read_mixture_payload(c.payload, c.flags, name);
+  m.provenance = c.provenance;
+  return m;
 }
 
 void save_model(const BtfModel& model, const std::filesystem::path& path) {

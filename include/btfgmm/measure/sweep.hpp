@@ -21,6 +21,7 @@
 #include "btfgmm/core/btf.hpp"
 #include "btfgmm/measure/compare.hpp"
 #include "btfgmm/methods/representation.hpp"
+#include "btfgmm/model/provenance.hpp"
 
 namespace btfgmm {
 
@@ -45,6 +46,7 @@ struct SweepProgress {
 };
 
 struct SweepRequest {
+  DataSource source;                 // where the tile was read from (the models' provenance)
   std::vector<std::string> methods;  // by name, in the order to fit; empty: every method
   // Settings fitted instead of a method's ladder, by method name (each a method swept).
   std::map<std::string, std::vector<MethodSettings>, std::less<>> ladders;

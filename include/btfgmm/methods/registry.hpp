@@ -43,6 +43,13 @@ std::span<const MethodInfo> all_methods();
 // Throws Error(kArgument) for an unknown name, listing the methods (and the nearest name).
 const MethodInfo& find_method(std::string_view name);
 
+// Fits `method` to `tile` and records the model's provenance: `data`, the tile's fingerprint
+// (fingerprint_of, computed once for many fits of one tile), the settings as asked (and the
+// size they gave), the fit's time, and for the mixture its EM log. Throws as the method's fit.
+std::unique_ptr<Representation> fit_and_record(const MethodInfo& method, const Btf& tile,
+                                               const MethodSettings& settings,
+                                               const DataFingerprint& data);
+
 // Any method's model file: read (Error(kFormat) naming the file and, where it holds something
 // else, what: an archive, an image, ...), written atomically. Every command that reads a model
 // reads it by load_representation, which refuses a folder (Error(kArgument); a folder of
