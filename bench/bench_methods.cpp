@@ -5,7 +5,9 @@
 //     images as rows of 3 S^2 values, less their mean image; numpy.linalg.svd with
 //     full_matrices=False, run by /usr/bin/python3 on the matrix written to a temporary .npy
 //     file). Prints both times, their ratio, and the RMSE of the fitted model beside numpy's
-//     optimum for c components (the singular values after the c-th).
+//     optimum for c components (the singular values after the c-th). Then scikit-learn's
+//     randomized_svd of c components on the same matrix, the same algorithm as btfgmm's
+//     randomized path (10 oversamples, 4 power iterations), its time, ratio and RMSE.
 //  2. Decoding every image of the tile (all ni x nv, S x S pixels each) for every method in
 //     the registry, at the middle size of its ladder: the model is fitted to the S x S tile,
 //     or to a smaller crop of it where the fit would take longer than --fit-budget seconds
@@ -117,9 +119,13 @@ struct NumpyResult {
   bool ok = false;
   double seconds = 0, optimum_rmse = 0;
   std::string version;
+  // scikit-learn's randomized_svd of c components (4 power iterations, as btfgmm's), the same
+  // algorithm as btfgmm's for a tile this size; seconds < 0 where scikit-learn is missing.
+  double randomized_seconds = -1, randomized_rmse = 0;
 };
 
-// numpy.linalg.svd(full_matrices=False) of the matrix in `npy`, timed in Python itself.
+// numpy.linalg.svd(full_matrices=False) of the matrix in `npy`, then scikit-learn's
+// randomized_svd, each timed in Python itself.
 NumpyResult numpy_svd(const std::filesystem::path& npy, const Options& o) {
   const std::string script =
       "import sys, time, numpy as np\n"
@@ -128,7 +134,16 @@ NumpyResult numpy_svd(const std::filesystem::path& npy, const Options& o) {
       "u, s, vt = np.linalg.svd(a, full_matrices=False)\n"
       "t = time.perf_counter() - t\n"
       "c = int(sys.argv[3])\n"
-      "print(t, np.sqrt(np.sum(s[c:].astype(np.float64) ** 2) / a.size), np.__version__)\n";
+      "print(t, np.sqrt(np.sum(s[c:].astype(np.float64) ** 2) / a.size), np.__version__)\n"
+      "try:\n"
+      "    from sklearn.utils.extmath import randomized_svd\n"
+      "    t = time.perf_counter()\n"
+      "    u, s, vt = randomized_svd(a, c, n_oversamples=10, n_iter=4, random_state=0)\n"
+      "    t = time.perf_counter() - t\n"
+      "    e = np.sum(a.astype(np.float64) ** 2) - np.sum(s.astype(np.float64) ** 2)\n"
+      "    print(t, np.sqrt(max(e, 0) / a.size))\n"
+      "except ImportError:\n"
+      "    print(-1, 0)\n";
   const std::filesystem::path py = npy.string() + ".py";
   std::ofstream(py) << script;
   const std::string cmd = "/usr/bin/python3 " + py.string() + " " + npy.string() + " " + o.dtype +
@@ -138,6 +153,8 @@ NumpyResult numpy_svd(const std::filesystem::path& npy, const Options& o) {
     char version[64] = {0};
     r.ok = std::fscanf(p, "%lf %lf %63s", &r.seconds, &r.optimum_rmse, version) == 3;
     r.version = version;
+    if (r.ok && std::fscanf(p, "%lf %lf", &r.randomized_seconds, &r.randomized_rmse) != 2)
+      r.randomized_seconds = -1;
     r.ok = pclose(p) == 0 && r.ok;
   }
   std::filesystem::remove(py);
@@ -183,6 +200,15 @@ void bench_pca(const btfgmm::Btf& tile, const Options& o) {
       np.version.c_str(), o.dtype.c_str(), np.seconds, o.components, np.optimum_rmse);
   if (pca)
     std::printf("numpy's time / btfgmm's: %.1fx (above 1: btfgmm faster)\n", np.seconds / ours);
+  if (np.randomized_seconds >= 0) {
+    std::printf(
+        "scikit-learn randomized_svd (%s, %zu components, 10 oversamples, 4 power iterations): "
+        "%.3f s, RMSE %.4f levels\n",
+        o.dtype.c_str(), o.components, np.randomized_seconds, np.randomized_rmse);
+    if (pca)
+      std::printf("scikit-learn's time / btfgmm's: %.1fx (above 1: btfgmm faster)\n",
+                  np.randomized_seconds / ours);
+  }
   std::printf("\n");
 }
 

@@ -6,6 +6,7 @@
 #include <fmt/format.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <charconv>
 #include <chrono>
@@ -138,6 +139,36 @@ inline nlohmann::json set_json(const btfgmm::DirectionSet& s) {
   nlohmann::json a = nlohmann::json::array();
   for (const auto& d : s) a.push_back({d.theta_deg, d.phi_deg});
   return a;
+}
+
+// JSON indented by two spaces, with every array of numbers or strings on one line ("[30.0,
+// 45.0]"): a list of direction pairs takes a line a pair, not four.
+inline void put_json_text(std::string& out, const nlohmann::json& j, int depth) {
+  if (!j.is_structured() || j.empty()) {
+    out += j.dump();
+    return;
+  }
+  if (j.is_array() &&
+      std::none_of(j.begin(), j.end(), [](const nlohmann::json& e) { return e.is_structured(); })) {
+    out += '[';
+    for (std::size_t i = 0; i < j.size(); ++i) out += (i ? ", " : "") + j[i].dump();
+    out += ']';
+    return;
+  }
+  const std::string pad(std::size_t(2 * (depth + 1)), ' ');
+  out += j.is_array() ? '[' : '{';
+  for (auto it = j.begin(); it != j.end(); ++it) {
+    out += (it == j.begin() ? "\n" : ",\n") + pad;
+    if (j.is_object()) out += nlohmann::json(it.key()).dump() + ": ";
+    put_json_text(out, *it, depth + 1);
+  }
+  out += '\n' + std::string(std::size_t(2 * depth), ' ') + (j.is_array() ? ']' : '}');
+}
+
+inline std::string json_text(const nlohmann::json& j) {
+  std::string out;
+  put_json_text(out, j, 0);
+  return out + "\n";
 }
 
 // A path names a model file when it is a regular file that is not a zip.

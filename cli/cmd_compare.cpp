@@ -19,6 +19,7 @@
 #include "btfgmm/report/report.hpp"
 #include "cli_util.hpp"
 #include "commands.hpp"
+#include "provenance_text.hpp"
 
 namespace btfgmm::cli {
 namespace {
@@ -29,7 +30,7 @@ struct CompareOptions {
   std::string btf, report;
   std::vector<std::string> models;
   std::size_t worst = 3;
-  bool json = false, overwrite = false, quiet = false;
+  bool json = false, overwrite = false, quiet = false, force = false;
 };
 
 bool same_tile(const Tile& a, const Tile& b) {
@@ -135,7 +136,34 @@ void print_comparison(const ModelComparison& c) {
       q.ssim_window, q.ssim_window, q.ssim_window < 11 ? " (shrunk to the tile)" : "");
 }
 
+// A BTF is a folder or a .zip.
+bool is_btf_path(const std::string& path) {
+  std::error_code ec;
+  return fs::is_directory(path, ec) || (fs::is_regular_file(path, ec) && !is_model_path(path));
+}
+
+// The BTF comes first, then the models: a model first, with the BTF after it, is the order
+// reversed, and the message shows the command in the right order.
+void check_argument_order(const CompareOptions& o) {
+  if (!is_model_path(o.btf)) return;
+  std::vector<std::string> btfs, models{o.btf};
+  for (const std::string& m : o.models) (is_btf_path(m) ? btfs : models).push_back(m);
+  if (btfs.size() == 1)
+    throw Error(Error::Kind::kArgument,
+                fmt::format("the arguments are in the wrong order: '{}' is a model and '{}' the "
+                            "BTF; give the BTF first, then the models: btfgmm compare {} {}",
+                            o.btf, btfs[0], btfs[0], fmt::join(models, " ")));
+}
+
+// A model's tile of the data against the data it records (check_fitted_data).
+DataMatch check_data(const Representation& model, const std::string& name, const Btf& tile,
+                     const BtfInfo& info, const CompareOptions& o) {
+  return enforce_data_check(check_fitted_data(model, name, tile, {o.btf, info.width, info.height}),
+                            o.force, o.quiet, "compare");
+}
+
 void run_compare(const CompareOptions& o) {
+  check_argument_order(o);
   if (!o.report.empty()) check_output_folder(o.report, o.overwrite);
   const BtfSource src = BtfSource::open(o.btf);
   const BtfInfo& info = src.info();
@@ -152,19 +180,15 @@ void run_compare(const CompareOptions& o) {
                   fmt::format("model '{}' does not exist; give the path of a .btfgmm file written "
                               "by btfgmm fit",
                               path));
-    if (!is_model_path(path))
-      throw Error(Error::Kind::kArgument,
-                  fmt::format("'{}' is not a model file; give the BTF first, then one or more "
-                              ".btfgmm models written by btfgmm fit",
-                              path));
     const ModelFrame& m = models.emplace_back(load_representation(path))->frame();
     if (!(m.lights == info.lights) || !(m.views == info.views))
       throw Error(
           Error::Kind::kArgument,
-          fmt::format("{}: the model was fitted to {} lights and {} views, but {} has {} "
+          fmt::format("{}: the model was fitted to {} lights and {} views of {}, but {} has {} "
                       "lights and {} views{}; compare a model with the BTF it was fitted "
                       "to",
-                      path, describe_set(m.lights), describe_set(m.views), o.btf,
+                      path, describe_set(m.lights), describe_set(m.views),
+                      describe_source(models.back()->provenance(), m.origin), o.btf,
                       describe_set(info.lights), describe_set(info.views),
                       m.lights.size() == info.lights.size() && m.views.size() == info.views.size()
                           ? " (same counts, other directions)"
@@ -183,6 +207,14 @@ void run_compare(const CompareOptions& o) {
                               path, tile.width, tile.height, tile.x, tile.y, info.width,
                               info.height, o.btf));
   }
+  // Then each model's tile of the data is the data it was fitted to, by its provenance.
+  std::vector<DataMatch> matches;
+  for (std::size_t k = 0; k < models.size(); ++k) {
+    const ModelFrame& m = models[k]->frame();
+    const Tile tile{m.origin.x, m.origin.y, m.width, m.height};
+    if (!tile_data || !same_tile(tile_data->origin(), tile)) tile_data = src.load(tile);
+    matches.push_back(check_data(*models[k], o.models[k], *tile_data, info, o));
+  }
   for (std::size_t k = 0; k < models.size(); ++k) {
     const auto t0 = Clock::now();
     const ModelFrame& m = models[k]->frame();
@@ -197,9 +229,12 @@ void run_compare(const CompareOptions& o) {
   }
 
   nlohmann::json all = nlohmann::json::array();
-  for (const auto& c : results) all.push_back(comparison_json(o.btf, c));
+  for (std::size_t k = 0; k < results.size(); ++k) {
+    all.push_back(comparison_json(o.btf, results[k]));
+    all.back()["data_match"] = std::string(to_string(matches[k]));
+  }
   if (o.json) {
-    std::cout << (results.size() == 1 ? all[0] : all).dump(2) << "\n";
+    std::cout << json_text(results.size() == 1 ? all[0] : all);
   } else {
     fmt::print("{}: {} lights x {} views, {}x{} pixels, {} data\n\n", o.btf, info.lights.size(),
                info.views.size(), info.width, info.height, to_string(info.format));
@@ -227,7 +262,7 @@ void run_compare(const CompareOptions& o) {
   }
   if (!o.report.empty()) {
     write_report(o.report, o.btf, results);
-    const std::string json = all.dump(2) + "\n";
+    const std::string json = json_text(all);
     btfgmm::write_file_atomically(
         fs::path(o.report) / "compare.json",
         std::span(reinterpret_cast<const std::uint8_t*>(json.data()), json.size()), "report");
@@ -255,6 +290,8 @@ void register_compare_commands(CLI::App& app, Commands& commands) {
       ->check(CLI::Range(std::size_t(0), std::size_t(100)))
       ->capture_default_str();
   c->add_flag("--overwrite", opt->overwrite, "Replace the files of a non-empty report folder");
+  c->add_flag("--force", opt->force,
+              "Compare even where a model's provenance records other data than the BTF's tile");
   c->add_flag("-q,--quiet", opt->quiet, "No progress on stderr");
 
   commands.push_back({c, [opt] { run_compare(*opt); }});

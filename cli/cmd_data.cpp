@@ -7,10 +7,12 @@
 
 #include "btfgmm/btfgmm.hpp"
 #include "btfgmm/core/text.hpp"
+#include "btfgmm/io/files.hpp"
 #include "btfgmm/model/model.hpp"
 #include "btfgmm/model/model_file.hpp"
 #include "cli_util.hpp"
 #include "commands.hpp"
+#include "provenance_text.hpp"
 
 namespace btfgmm::cli {
 namespace {
@@ -27,7 +29,32 @@ struct GenerateOptions {
   bool hdr = false;
   int supersample = 2;
   std::string out;
-  bool overwrite = false;
+  bool overwrite = false, quiet = false;
+};
+
+// A line at every tenth of a stage's work once a second has passed since the start (short
+// runs stay quiet), with the time the stage has left.
+class GenerateProgress {
+ public:
+  void operator()(std::string_view stage, double fraction) {
+    if (stage != stage_) {
+      stage_ = stage;
+      stage_start_ = Clock::now();
+      printed_ = 0;
+    }
+    const int tenth = int(fraction * 10.0 + 1e-9);
+    if (tenth <= printed_ || fraction >= 1.0 || seconds_since(start_) < 1.0) return;
+    printed_ = tenth;
+    const double seconds = seconds_since(stage_start_);
+    fmt::print(stderr, "{}: {:>3.0f}% of the images, {} so far, about {} left\n", stage,
+               100.0 * fraction, human_seconds(seconds),
+               human_seconds(seconds * (1.0 - fraction) / fraction));
+  }
+
+ private:
+  std::string stage_;
+  Clock::time_point start_ = Clock::now(), stage_start_ = start_;
+  int printed_ = 0;
 };
 
 void run_generate(const GenerateOptions& o) {
@@ -39,15 +66,31 @@ void run_generate(const GenerateOptions& o) {
   c.views = btfgmm::DirectionSet::parse(o.views);
   c.hdr = o.hdr;
   c.supersample = o.supersample;
+  btfgmm::check_generate_config(c);  // before anything is announced or written
   check_output_folder(o.out, o.overwrite);
   const auto t0 = Clock::now();
-  fmt::print(stderr, "generating {} ({}x{} pixels, {} lights x {} views, seed {})...\n", c.material,
-             c.size, c.size, c.lights.size(), c.views.size(), c.seed);
+  if (!o.quiet)
+    fmt::print(stderr, "generating {} ({}x{} pixels, {} lights x {} views, seed {})...\n",
+               c.material, c.size, c.size, c.lights.size(), c.views.size(), c.seed);
+  GenerateProgress progress;
+  if (!o.quiet)
+    c.progress = [&](double fraction, std::string_view) { progress("rendering", fraction); };
   const btfgmm::Btf btf = btfgmm::generate(c);
   const double rendered = seconds_since(t0);
-  btfgmm::write_utia(btf, o.out);
-  fmt::print(stderr, "wrote {} images to {} (rendered in {:.1f} s, written in {:.1f} s)\n",
-             btf.image_count(), o.out, rendered, seconds_since(t0) - rendered);
+  std::function<void(double)> written;
+  if (!o.quiet) written = [&](double fraction) { progress("writing", fraction); };
+  btfgmm::write_utia(btf, o.out, std::nullopt, written);
+  if (!o.quiet)
+    fmt::print(stderr, "wrote {} images to {} (rendered in {:.1f} s, written in {:.1f} s)\n",
+               btf.image_count(), o.out, rendered, seconds_since(t0) - rendered);
+}
+
+// --material's help: every material, from the library's one list.
+std::string material_help() {
+  std::string h = "The material:";
+  for (const btfgmm::MaterialInfo& m : btfgmm::materials())
+    h += fmt::format("\n  {:<9} {}", m.name, m.description);
+  return h;
 }
 
 // ---- info --------------------------------------------------------------------------------
@@ -74,7 +117,7 @@ void info_btf(const std::string& path, bool json) {
     j["ignored_files"] = i.ignored_files;
     j["light_directions"] = set_json(i.lights);
     j["view_directions"] = set_json(i.views);
-    std::cout << j.dump(2) << "\n";
+    std::cout << json_text(j);
     return;
   }
   fmt::print("{}\n", path);
@@ -93,14 +136,21 @@ void info_btf(const std::string& path, bool json) {
 }
 
 void info_model(const std::string& path, bool json) {
-  const auto r = btfgmm::load_representation(path);
+  const std::vector<std::uint8_t> file = btfgmm::read_whole_file(path, "model file");
+  const auto r = btfgmm::read_representation(file, path);
+  const std::uint32_t version = btfgmm::open_model_file(file, path).version;
   const btfgmm::ModelFrame& m = r->frame();
-  const std::uint64_t bytes = fs::file_size(path);
+  const std::uint64_t bytes = file.size();
+  const std::size_t requested =
+      r->method() == btfgmm::kMixtureMethod
+          ? dynamic_cast<const btfgmm::GaussianMixture&>(*r).model().settings.components
+          : 0;
   if (json) {
     nlohmann::json j;
     j["path"] = path;
     j["kind"] = "model";
-    j["format_version"] = btfgmm::kModelFormatVersion;
+    j["format_version"] = version;
+    j["provenance"] = provenance_json(r->provenance(), requested);
     j["tile"] = {m.origin.x, m.origin.y, m.width, m.height};
     j["lights"] = m.lights.size();
     j["views"] = m.views.size();
@@ -109,16 +159,17 @@ void info_model(const std::string& path, bool json) {
     j["file_bytes"] = bytes;
     j["compression_ratio_paper"] = r->paper_ratio();
     j["compression_ratio_file"] = r->file_ratio(bytes);
-    std::cout << j.dump(2) << "\n";
+    std::cout << json_text(j);
     return;
   }
   fmt::print("{}\n", path);
-  fmt::print("  model        btfgmm format {}\n", btfgmm::kModelFormatVersion);
+  fmt::print("  model        btfgmm format {}\n", version);
   fmt::print("  tile         {}x{} pixels at ({}, {}) of the source, {} data\n", m.width, m.height,
              m.origin.x, m.origin.y, btfgmm::to_string(m.format));
   fmt::print("  lights       {}\n", describe_set(m.lights));
   fmt::print("  views        {}\n", describe_set(m.views));
   print_model_lines(*r);
+  print_provenance_lines(r->provenance(), m.origin);
   fmt::print("  file         {} bytes ({})\n", bytes, human_bytes(double(bytes)));
   fmt::print(
       "  compression  1:{:.1f} by the paper's count (Table 2), 1:{:.1f} by the file's "
@@ -133,8 +184,7 @@ void register_data_commands(CLI::App& app, Commands& commands) {
   auto* g = app.add_subcommand("generate",
                                "Render a synthetic BTF of a procedural material "
                                "and write it in the UTIA layout");
-  g->add_option("--material", gen->material, "Material: corduroy, knit, bumps, ...")
-      ->capture_default_str();
+  g->add_option("--material", gen->material, material_help())->capture_default_str();
   g->add_option("--size", gen->size, "Image width = height in pixels")
       ->check(CLI::Range(4, 8192))
       ->capture_default_str();
@@ -150,6 +200,7 @@ void register_data_commands(CLI::App& app, Commands& commands) {
       ->capture_default_str();
   g->add_option("-o,--output", gen->out, "Output folder")->required();
   g->add_flag("--overwrite", gen->overwrite, "Replace images in a non-empty output folder");
+  g->add_flag("-q,--quiet", gen->quiet, "No progress on stderr");
 
   commands.push_back({g, [gen] { run_generate(*gen); }});
 

@@ -3,9 +3,11 @@
 
 #include <algorithm>
 #include <array>
+#include <cmath>
 #include <cstdlib>
 #include <filesystem>
 #include <iostream>
+#include <map>
 #include <memory>
 #include <optional>
 #include <span>
@@ -19,6 +21,7 @@
 #include "btfgmm/model/predict.hpp"
 #include "cli_util.hpp"
 #include "commands.hpp"
+#include "provenance_text.hpp"
 #include "stop_signals.hpp"
 #include "tile_option.hpp"
 
@@ -35,9 +38,40 @@ struct FitOptions {
   std::uint64_t seed = 1;
   int threads = 0;
   bool overwrite = false, quiet = false;
-  std::string checkpoint, resume;
+  std::string checkpoint, resume, continue_from, log;
   int checkpoint_every = 1;
+  // The options given on the command line, by long name ("--components"), each with the
+  // names it goes by ("-M/--components") for messages.
+  std::map<std::string, std::string> given;
 };
+
+// The options given to `app`.
+std::map<std::string, std::string> given_options(const CLI::App& app) {
+  std::map<std::string, std::string> given;
+  for (const CLI::Option* opt : app.get_options())
+    if (opt->count() > 0) {
+      std::string names = opt->get_name(false, true);
+      std::replace(names.begin(), names.end(), ',', '/');
+      given[opt->get_name()] = names;
+    }
+  return given;
+}
+
+// Options that cannot apply to what the fit does are errors, never ignored: those of
+// `options` given are named, with `why`.
+void refuse_options(const FitOptions& o, std::initializer_list<const char*> options,
+                    const std::string& why) {
+  std::string named;
+  int count = 0;
+  for (const char* opt : options)
+    if (const auto it = o.given.find(opt); it != o.given.end()) {
+      named += (named.empty() ? "" : ", ") + it->second;
+      ++count;
+    }
+  if (count > 0)
+    throw Error(Error::Kind::kArgument, fmt::format("{} cannot apply {}; leave {} out", named, why,
+                                                    count == 1 ? "it" : "them"));
+}
 
 btfgmm::Precision parse_precision(const std::string& text) {
   if (text == "f32") return btfgmm::Precision::kF32;
@@ -51,7 +85,8 @@ btfgmm::FitRequest new_fit_request(const FitOptions& o) {
   if (o.input.empty() || o.out.empty())
     throw Error(Error::Kind::kArgument,
                 "fit needs an input BTF and -o MODEL (or --resume CHECKPOINT to continue an "
-                "interrupted fit)");
+                "interrupted fit, or --continue MODEL --iterations N -o MODEL to go on with a "
+                "finished one)");
   btfgmm::FitRequest r;
   r.input = o.input;
   r.output = o.out;
@@ -64,11 +99,45 @@ btfgmm::FitRequest new_fit_request(const FitOptions& o) {
   return r;
 }
 
-// A new fit or, with --resume, the interrupted one continued: everything (the output
-// included) from its checkpoint, which keeps the state unless --checkpoint names another.
+// With --resume, the interrupted fit continued: everything (the output included) from its
+// checkpoint, which keeps the state unless --checkpoint names another.
+btfgmm::FitRequest resume_fit_request(const FitOptions& o) {
+  refuse_options(
+      o,
+      {"--output", "--tile", "--components", "--seed", "--precision", "--overwrite", "--continue"},
+      fmt::format("with --resume: the fit goes on with the input, tile, components, "
+                  "seed, precision and output its checkpoint '{}' holds",
+                  o.resume));
+  btfgmm::FitRequest r = btfgmm::resume_request(o.resume);
+  if (!o.checkpoint.empty()) r.checkpoint = o.checkpoint;
+  return r;
+}
+
+// With --continue, the finished mixture's EM goes on to --iterations in all, from its stored
+// parameters, on its data (the input, or the source its provenance records).
+btfgmm::FitRequest continue_fit_request(const FitOptions& o) {
+  refuse_options(o, {"--tile", "--components", "--seed", "--precision"},
+                 fmt::format("with --continue: the fit goes on with the tile, components, seed "
+                             "and precision of the model '{}'",
+                             o.continue_from));
+  if (!o.given.count("--iterations") || o.out.empty())
+    throw Error(Error::Kind::kArgument,
+                fmt::format("--continue {} needs --iterations N (the total number of EM "
+                            "iterations, more than the model has run) and -o MODEL",
+                            o.continue_from));
+  btfgmm::FitRequest r = btfgmm::continue_request(o.continue_from, o.input, o.iterations, o.out);
+  r.checkpoint = o.checkpoint;
+  return r;
+}
+
+// A new fit, the interrupted one resumed (--resume), or a finished one continued
+// (--continue); --iterations and --epsilon apply to each.
 btfgmm::FitRequest fit_request(const FitOptions& o) {
-  btfgmm::FitRequest r = o.resume.empty() ? new_fit_request(o) : btfgmm::resume_request(o.resume);
-  if (r.resume && !o.checkpoint.empty()) r.checkpoint = o.checkpoint;
+  btfgmm::FitRequest r = !o.resume.empty()          ? resume_fit_request(o)
+                         : !o.continue_from.empty() ? continue_fit_request(o)
+                                                    : new_fit_request(o);
+  if (r.resume && o.given.count("--iterations")) r.config.em.max_iterations = o.iterations;
+  if (r.resume && o.given.count("--epsilon")) r.config.em.epsilon = o.epsilon;
   r.checkpoint_every = o.checkpoint_every;
   r.config.em.threads = o.threads;
   r.config.em.stop = &g_stop;
@@ -90,42 +159,57 @@ void print_loaded(const btfgmm::Btf& btf, double seconds) {
              btf.views().size(), n, human_seconds(seconds));
 }
 
-// One EM iteration; the time left is estimated from the iterations since `first`.
-void print_iteration(const btfgmm::EmProgress& p, int first) {
-  const double per = p.seconds / std::max(1, p.iteration - first);
+// Where this run of a fit starts: after `iteration` iterations (0, or those of the fit it
+// resumes or continues) that took `seconds`.
+struct RunStart {
+  int iteration = 0;
+  double seconds = 0.0;
+};
+
+// One EM iteration; the time left is estimated from this run's iterations. The first
+// iteration of a fit has no gain.
+void print_iteration(const btfgmm::EmProgress& p, const RunStart& start) {
+  const double per = (p.seconds - start.seconds) / std::max(1, p.iteration - start.iteration);
+  const std::string gain =
+      std::isnan(p.relative_gain) ? std::string() : fmt::format("gain {:+.2e}", p.relative_gain);
   fmt::print(stderr,
-             "iteration {:>3}/{}  L = {:.6f}  gain {:+.2e}  components {} ({} dropped)  {}  "
-             "ETA {}\n",
-             p.iteration, p.max_iterations, p.log_likelihood, p.relative_gain, p.components,
-             p.dropped, human_seconds(p.seconds),
-             human_seconds(per * (p.max_iterations - p.iteration)));
+             "iteration {:>3}/{}  L = {:.6f}  {:<14}  components {} ({} dropped)  {}  ETA {}\n",
+             p.iteration, p.max_iterations, p.log_likelihood, gain, p.components, p.dropped,
+             human_seconds(p.seconds), human_seconds(per * (p.max_iterations - p.iteration)));
 }
 
-void print_written(const std::string& out, const btfgmm::FitOutcome& fit) {
+// The model written. Its L is of the parameters written, after the last M-step; each
+// iteration's line shows L of the parameters it started from (docs/ALGORITHM.md).
+void print_written(const std::string& out, const btfgmm::FitOutcome& fit, const RunStart& start) {
   const btfgmm::BtfModel& model = fit.model;
+  const btfgmm::FitLog& log = model.provenance.fit;
+  const std::string last =
+      log.iterations.empty()
+          ? std::string()
+          : fmt::format(" (iteration {} showed L = {:.6f}, before its M-step)",
+                        log.iterations.size(), log.iterations.back().log_likelihood);
+  const std::string time =
+      start.iteration > 0 ? fmt::format("{} in all, {} in this run from iteration {} on",
+                                        human_seconds(log.seconds),
+                                        human_seconds(model.settings.seconds), start.iteration + 1)
+                          : human_seconds(log.seconds);
   fmt::print(stderr,
-             "wrote {}: M = {} ({} dropped), L = {:.6f}, {} bytes, compression 1:{:.1f} "
-             "(paper's count) / 1:{:.1f} (file), fit in {}\n",
-             out, model.mixture.size(), model.settings.dropped, model.settings.log_likelihood,
+             "wrote {}: M = {} ({} dropped), L = {:.6f} after the last M-step{}, {} bytes, "
+             "compression 1:{:.1f} (paper's count) / 1:{:.1f} (file), fit in {}\n",
+             out, model.mixture.size(), model.settings.dropped, model.settings.log_likelihood, last,
              fit.file_bytes, model.compression_ratio_paper(),
-             model.compression_ratio_file(fit.file_bytes), human_seconds(model.settings.seconds));
+             model.compression_ratio_file(fit.file_bytes), time);
 }
 
 // ---- fit --method: any other method ------------------------------------------------------
 
 // Options of the mixture's EM that another method cannot use are errors, never ignored.
 void check_method_options(const FitOptions& o) {
-  auto refuse = [&](bool given, const char* option) {
-    if (given)
-      throw Error(Error::Kind::kArgument,
-                  fmt::format("{} applies to the Gaussian mixture's EM (--method gm) only, not to "
-                              "--method {}; leave it out",
-                              option, o.method));
-  };
-  refuse(o.epsilon != 0.0, "--epsilon");
-  refuse(!o.checkpoint.empty(), "--checkpoint");
-  refuse(o.checkpoint_every != 1, "--checkpoint-every");
-  refuse(!o.resume.empty(), "--resume");
+  refuse_options(
+      o, {"--epsilon", "--checkpoint", "--checkpoint-every", "--resume", "--continue", "--log"},
+      fmt::format("to --method {}: they belong to the Gaussian mixture's EM "
+                  "(--method gm) only",
+                  o.method));
   if (o.input.empty() || o.out.empty())
     throw Error(Error::Kind::kArgument, "fit needs an input BTF and -o MODEL");
 }
@@ -141,7 +225,7 @@ void run_method_fit(const FitOptions& o) {
   s.seed = o.seed;
   s.threads = o.threads;
   // 8 bits a factor by default: at most 0.1 dB below f32 on generated tiles (docs/METHODS.md).
-  s.encoding = o.precision.empty() ? btfgmm::FactorEncoding::kQ8
+  s.encoding = o.precision.empty() ? method.fit_encoding
                                    : btfgmm::parse_factor_encoding(o.precision, "--precision");
   check_output_file(o.out, o.overwrite);
   const auto t0 = Clock::now();
@@ -154,15 +238,30 @@ void run_method_fit(const FitOptions& o) {
     s.progress = [&](double fraction, std::string_view stage) {
       fmt::print(stderr, "{} {:>5.1f}%  {}\n", o.method, 100.0 * fraction, stage);
     };
-  const auto t1 = Clock::now();
-  const std::unique_ptr<btfgmm::Representation> r = method.fit(btf, s);
-  const double fit_seconds = seconds_since(t1);
+  const std::unique_ptr<btfgmm::Representation> r = btfgmm::fit_and_record(
+      method, btf, s, btfgmm::fingerprint_of(btf, {o.input, src.info().width, src.info().height}));
+  const double fit_seconds = r->provenance().fit.seconds;
   const std::uint64_t bytes = btfgmm::save_representation(*r, o.out);
+  if (o.quiet) return;
   fmt::print(stderr,
              "wrote {}: {} {}, {} values, {} bytes, compression 1:{:.1f} (paper's count) / "
              "1:{:.1f} (file), fit in {}\n",
              o.out, o.method, r->size_text(), r->parameter_count(), bytes, r->paper_ratio(),
              r->file_ratio(bytes), human_seconds(fit_seconds));
+}
+
+// `fit --log FILE`: opened once the fit starts, with the iterations of the fit it resumes or
+// continues first.
+std::optional<IterationLog> open_iteration_log(const FitOptions& o, const btfgmm::FitRequest& r) {
+  if (o.log.empty()) return std::nullopt;
+  IterationLog log(o.log, r.config.components);
+  if (r.resume) {
+    const btfgmm::EmResult& e = r.resume->checkpoint.state.result;
+    for (std::size_t i = 0; i < e.log_likelihood.size(); ++i)
+      log.add({e.log_likelihood[i], i < e.seconds.size() ? e.seconds[i] : 0.0,
+               i < e.components.size() ? e.components[i] : 0u});
+  }
+  return log;
 }
 
 void run_fit(const FitOptions& o) {
@@ -173,32 +272,43 @@ void run_fit(const FitOptions& o) {
                             o.clusters ? "--clusters" : "--degree",
                             o.clusters ? "--method lpca" : "--method plm-rf"));
   btfgmm::FitRequest r = fit_request(o);
-  check_output_file(r.output, o.overwrite || r.resume);
+  const bool resumed = r.resume && !r.resume->finished_model;
+  check_output_file(r.output, o.overwrite || resumed);
   if (!r.checkpoint.empty()) check_output_file(r.checkpoint, true);
+  if (!o.log.empty()) check_output_file(o.log, o.overwrite || resumed);
   const auto t0 = Clock::now();
   choose_fit_tile(r, o.tile, o.quiet);
-  const int first = r.resume ? r.resume->checkpoint.state.result.iterations : 0;
+  RunStart start;
+  if (r.resume) {
+    const btfgmm::EmResult& e = r.resume->checkpoint.state.result;
+    start = {e.iterations, e.seconds.empty() ? 0.0 : e.seconds.back()};
+  }
   std::optional<StopOnSignals> stop_on_signals;
+  std::optional<IterationLog> log;
   btfgmm::FitObserver observer;
   observer.started = [&](const btfgmm::Btf& btf) {
     if (!o.quiet) print_loaded(btf, seconds_since(t0));
     if (r.resume && !o.quiet)
-      fmt::print(stderr, "resuming from {} after iteration {}\n", r.resume->path, first);
+      fmt::print(stderr, "{} {} after iteration {}\n", resumed ? "resuming from" : "continuing",
+                 r.resume->path, start.iteration);
+    log = open_iteration_log(o, r);
     stop_on_signals.emplace();
   };
   observer.iteration = [&](const btfgmm::EmProgress& p) {
-    if (!o.quiet) print_iteration(p, first);
+    if (!o.quiet) print_iteration(p, start);
+    if (log) log->add({p.log_likelihood, p.seconds, std::uint32_t(p.components)});
   };
   const btfgmm::FitOutcome fit = btfgmm::run_fit(r, observer);
   stop_on_signals.reset();
   if (fit.interrupted) {
+    // Not an error, but the fit is not done: said even with --quiet.
     fmt::print(stderr,
                "interrupted after iteration {} of {}; nothing is lost: the fit's state is in "
                "{}\ncontinue with: btfgmm fit --resume {}\n",
                fit.iterations, r.config.em.max_iterations, fit.checkpoint, fit.checkpoint);
     std::exit(130);
   }
-  print_written(r.output, fit);
+  if (!o.quiet) print_written(r.output, fit, start);
 }
 
 // ---- decode ------------------------------------------------------------------------------
@@ -249,6 +359,7 @@ void run_eval(const EvalOptions& o) {
                         parse_direction(o.view, "--view")};
   std::array<float, 3> rgb{};
   model->predict(std::span(&q, 1), rgb);
+  const bool hdr = model->frame().format == btfgmm::SampleFormat::kHdr;
   if (o.json) {
     nlohmann::json j;
     j["x"] = o.x;
@@ -256,9 +367,11 @@ void run_eval(const EvalOptions& o) {
     j["light"] = {q.light.theta_deg, q.light.phi_deg};
     j["view"] = {q.view.theta_deg, q.view.phi_deg};
     j["rgb"] = {rgb[0], rgb[1], rgb[2]};
+    j["units"] = hdr ? "linear" : "levels";  // linear: the data's units; levels: of 0-255
     std::cout << j.dump() << "\n";
   } else {
-    fmt::print("{:.4f} {:.4f} {:.4f}\n", rgb[0], rgb[1], rgb[2]);
+    fmt::print("R {:.4f}  G {:.4f}  B {:.4f}  ({})\n", rgb[0], rgb[1], rgb[2],
+               hdr ? "linear values in the data's units" : "levels of 0-255");
   }
 }
 
@@ -290,8 +403,8 @@ void register_fit(CLI::App& app, Commands& commands) {
   f->add_option("--degree", fit->degree, "plm-rf: the degree of the per-image polynomial")
       ->check(CLI::Range(std::size_t(0), std::size_t(64)));
   f->add_option("--iterations", fit->iterations,
-                "Maximum EM iterations (gm, default 40), re-assignment rounds (lpca) or "
-                "Levenberg-Marquardt steps (plm-rf)")
+                "Maximum EM iterations (gm, default 40; with --resume or --continue, the total "
+                "to go on to), re-assignment rounds (lpca) or Levenberg-Marquardt steps (plm-rf)")
       ->check(CLI::Range(1, 100000));
   f->add_option("--epsilon", fit->epsilon, "Stop when the relative gain of L is below this")
       ->check(CLI::Range(0.0, 1.0))
@@ -314,12 +427,25 @@ void register_fit(CLI::App& app, Commands& commands) {
       ->capture_default_str();
   f->add_option("--resume", fit->resume,
                 "Continue an interrupted fit from its checkpoint (input, tile, settings and "
-                "output come from it); the model equals an uninterrupted fit's, bit for bit")
+                "output come from it; --iterations N goes on to N in all); the model equals an "
+                "uninterrupted fit's, bit for bit")
       ->excludes(f->get_option("input"));
-  f->add_flag("--overwrite", fit->overwrite, "Replace an existing model file");
-  f->add_flag("-q,--quiet", fit->quiet, "No progress on stderr");
+  f->add_option("--continue", fit->continue_from,
+                "Continue a finished Gaussian mixture (a .btfgmm) to --iterations N in all, "
+                "from its stored parameters, on the data its provenance names (or the input); "
+                "equals one longer fit within the rounding of the stored parameters");
+  f->add_option("--log", fit->log,
+                "Write every EM iteration to this file as it goes: a JSON object a line "
+                "(iteration, log_likelihood, relative_gain, components, dropped, seconds), or "
+                "CSV for a name ending in .csv");
+  f->add_flag("--overwrite", fit->overwrite, "Replace an existing model file (and --log file)");
+  f->add_flag("-q,--quiet", fit->quiet,
+              "Nothing on stderr but errors (and the notice of an interrupted fit)");
 
-  commands.push_back({f, [fit] { run_fit(*fit); }});
+  commands.push_back({f, [fit, f] {
+                        fit->given = given_options(*f);
+                        run_fit(*fit);
+                      }});
 }
 
 void register_decode(CLI::App& app, Commands& commands) {
@@ -346,13 +472,24 @@ void register_decode(CLI::App& app, Commands& commands) {
 
 void register_eval(CLI::App& app, Commands& commands) {
   auto ev = std::make_shared<EvalOptions>();
-  auto* e = app.add_subcommand("eval", "Evaluate a model at one pixel, light and view");
+  auto* e = app.add_subcommand(
+      "eval",
+      "Evaluate a model at one pixel, light and view: its RGB, labelled, in levels of 0-255 "
+      "(8- and 16-bit data) or in the data's linear units (OpenEXR data)");
   e->add_option("model", ev->model, "A .btfgmm model")->required();
-  e->add_option("--x", ev->x, "Pixel x (any real number; the tile repeats)")->required();
-  e->add_option("--y", ev->y, "Pixel y (any real number; the tile repeats)")->required();
+  e->add_option("--x", ev->x,
+                "Column in the model's tile, in pixels: integers are pixel centres, 0 the tile's "
+                "first column (not the source image's); any real number, the tile repeats "
+                "(x and x + W give the same value)")
+      ->required();
+  e->add_option("--y", ev->y,
+                "Row in the model's tile, in pixels, as --x: 0 is the centre of the tile's first "
+                "row")
+      ->required();
   e->add_option("--light", ev->light, "Light THETA,PHI in degrees")->required();
   e->add_option("--view", ev->view, "View THETA,PHI in degrees")->required();
-  e->add_flag("--json", ev->json, "One JSON object for scripts");
+  e->add_flag("--json", ev->json,
+              "One JSON object for scripts: x, y, light, view and rgb (the same units)");
 
   commands.push_back({e, [ev] { run_eval(*ev); }});
 }

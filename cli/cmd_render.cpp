@@ -17,6 +17,7 @@
 #include "btfgmm/render/render.hpp"
 #include "cli_util.hpp"
 #include "commands.hpp"
+#include "provenance_text.hpp"
 #include "tile_option.hpp"
 
 namespace btfgmm::cli {
@@ -33,7 +34,7 @@ struct RenderOptions {
   double intensity = 1.0, fov = 30.0, repeat = 4.0, exposure = 0.0, tolerance = 0.1;
   double difference_scale = 10.0;
   int threads = 0;
-  bool overwrite = false, json = false, quiet = false;
+  bool overwrite = false, json = false, quiet = false, force = false;
 };
 
 // A world direction "THETA,PHI": theta from +z in [0, 180] (a light or a camera may be
@@ -63,6 +64,37 @@ btfgmm::Btf load_data(const std::string& path, const std::string& tile,
   return src.load(t);
 }
 
+bool same_tile(const btfgmm::Tile& a, const btfgmm::Tile& b) {
+  return a.x == b.x && a.y == b.y && a.width == b.width && a.height == b.height;
+}
+
+// --compare's data: the tile --tile asks for (the model's own by default), checked against the
+// data the model records (its own tile, read for that where --tile asks for another).
+btfgmm::Btf load_compared_data(const btfgmm::Representation& model, const RenderOptions& o,
+                               btfgmm::DataMatch& match) {
+  const btfgmm::BtfSource src = btfgmm::BtfSource::open(o.compare);
+  const btfgmm::BtfInfo& info = src.info();
+  const btfgmm::Tile own = model.frame().origin;
+  const btfgmm::Tile t = o.tile.empty() ? own : tile_option(src, o.tile, o.quiet);
+  btfgmm::Btf data = src.load(t);
+  const bool quiet = o.quiet || o.json;
+  if (own.x + own.width > info.width || own.y + own.height > info.height) {
+    match = enforce_data_check(
+        {btfgmm::DataMatch::kOtherContent,
+         fmt::format("'{}' is not the data '{}' was fitted to: the model records {}, outside "
+                     "the {}x{} images of '{}'",
+                     o.compare, o.input, btfgmm::describe_source(model.provenance(), own),
+                     info.width, info.height, o.compare)},
+        o.force, quiet, "render");
+    return data;
+  }
+  const btfgmm::DataSource source{o.compare, info.width, info.height};
+  match = enforce_data_check(
+      btfgmm::check_fitted_data(model, o.input, same_tile(t, own) ? data : src.load(own), source),
+      o.force, quiet, "render");
+  return data;
+}
+
 nlohmann::json stats_json(const btfgmm::Rendering& r) {
   return {{"geometry_seconds", r.geometry_seconds},
           {"shading_seconds", r.stats.seconds},
@@ -73,6 +105,7 @@ nlohmann::json stats_json(const btfgmm::Rendering& r) {
 
 void run_render(const RenderOptions& o) {
   if (o.threads > 0) omp_set_num_threads(o.threads);
+  btfgmm::output_image_format(o.out);  // a format btfgmm writes, before any work
   check_output_file(o.out, o.overwrite);
   const bool model_input = is_model_path(o.input);
   if (!o.compare.empty() && !model_input)
@@ -125,10 +158,11 @@ void run_render(const RenderOptions& o) {
   const auto t0 = Clock::now();
   std::shared_ptr<const btfgmm::Representation> model;
   std::optional<btfgmm::Btf> data;
+  btfgmm::DataMatch match = btfgmm::DataMatch::kSame;
   if (model_input) {
     model = btfgmm::load_representation(o.input);
     if (!o.compare.empty()) {
-      data = load_data(o.compare, o.tile, model->frame().origin, o.quiet);
+      data = load_compared_data(*model, o, match);
       if (data->width() != model->frame().width || data->height() != model->frame().height)
         throw Error(Error::Kind::kArgument,
                     fmt::format("the data tile is {}x{} pixels and the model's {}x{}: compare the "
@@ -192,7 +226,8 @@ void run_render(const RenderOptions& o) {
     const btfgmm::RenderComparison c = btfgmm::compare_renderings(*data_img, *model_img);
     const btfgmm::Image fig =
         btfgmm::comparison_figure(*data_img, *model_img, c, o.difference_scale);
-    btfgmm::write_png(o.out, fig.width, fig.height, fig.rgb);
+    btfgmm::write_picture(o.out, fig.width, fig.height, fig.rgb);
+    j["data_match"] = std::string(btfgmm::to_string(match));
     j["rmse"] = c.rmse;
     j["psnr_db"] = c.psnr;
     j["ssim"] = c.ssim;
@@ -203,7 +238,7 @@ void run_render(const RenderOptions& o) {
         o.difference_scale, c.rmse, c.psnr, c.ssim, c.pixels);
   } else {
     const btfgmm::Rendering& r = model_img ? *model_img : *data_img;
-    btfgmm::write_png(o.out, r.width, r.height, r.rgb);
+    btfgmm::write_picture(o.out, r.width, r.height, r.rgb);
   }
   if (o.json) {
     std::cout << j.dump() << "\n";
@@ -216,31 +251,52 @@ void run_render(const RenderOptions& o) {
 
 struct TileOptions {
   std::string input, size = "32x32";
-  std::size_t images = 64;
+  std::size_t images = 64, top = 1;
   bool json = false;
 };
+
+nlohmann::json candidate_json(const btfgmm::TileCandidate& c) {
+  const btfgmm::Tile& t = c.tile;
+  return {{"tile", {t.x, t.y, t.width, t.height}},
+          {"score", c.score},
+          {"seam_error", c.seam.total},
+          {"left_right", c.seam.left_right},
+          {"top_bottom", c.seam.top_bottom},
+          {"rms_levels", c.seam.rms_levels}};
+}
 
 void run_tile(const TileOptions& o) {
   const btfgmm::BtfSource src = btfgmm::BtfSource::open(o.input);
   btfgmm::TileSearchConfig c = btfgmm::parse_tile_search_size(o.size, "--size");
   c.images = o.images;
+  c.top = o.top;
   const auto t0 = Clock::now();
   const btfgmm::TileSearchResult r = btfgmm::find_seamless_tile(src, c);
   const btfgmm::Tile& t = r.tile;
   if (o.json) {
-    nlohmann::json j;
-    j["tile"] = {t.x, t.y, t.width, t.height};
-    j["seam_error"] = r.seam.total;
-    j["left_right"] = r.seam.left_right;
-    j["top_bottom"] = r.seam.top_bottom;
-    j["rms_levels"] = r.seam.rms_levels;
+    nlohmann::json j = candidate_json(r.ranked[0]);
     j["candidates"] = r.candidates;
     j["images"] = r.images;
     j["seconds"] = seconds_since(t0);
+    if (o.top > 1) {
+      j["ranked"] = nlohmann::json::array();
+      for (const btfgmm::TileCandidate& k : r.ranked) j["ranked"].push_back(candidate_json(k));
+    }
     std::cout << j.dump() << "\n";
     return;
   }
-  fmt::print("tile {},{},{},{}\n", t.x, t.y, t.width, t.height);
+  if (o.top > 1) {
+    fmt::print("{:>4}  {:<16} {:>7} {:>10} {:>10} {:>10}\n", "rank", "tile X,Y,W,H", "score",
+               "seam error", "left-right", "top-bottom");
+    for (std::size_t k = 0; k < r.ranked.size(); ++k) {
+      const btfgmm::TileCandidate& e = r.ranked[k];
+      fmt::print("{:>4}  {:<16} {:>7.3f} {:>10.3f} {:>10.3f} {:>10.3f}\n", k + 1,
+                 fmt::format("{},{},{},{}", e.tile.x, e.tile.y, e.tile.width, e.tile.height),
+                 e.score, e.seam.total, e.seam.left_right, e.seam.top_bottom);
+    }
+  } else {
+    fmt::print("tile {},{},{},{}\n", t.x, t.y, t.width, t.height);
+  }
   fmt::print(stderr,
              "seam error {:.3f} (left-right {:.3f}, top-bottom {:.3f}; 0 = repeats as the texture "
              "continues, 1 = as different as neighbouring pixels), {:.2f} levels RMS; {} "
@@ -300,8 +356,13 @@ void register_render_commands(CLI::App& app, Commands& commands) {
   r->add_option("--threads", ro->threads, "Threads (0: all cores)")
       ->check(CLI::Range(0, 1024))
       ->capture_default_str();
-  r->add_option("-o,--output", ro->out, "The PNG to write")->required();
+  r->add_option("-o,--output", ro->out,
+                "The picture to write, in the format its extension names: .png, .jpg (or .jpeg; "
+                "quality 95) or .exr (linear values, the sRGB levels decoded)")
+      ->required();
   r->add_flag("--overwrite", ro->overwrite, "Replace an existing file");
+  r->add_flag("--force", ro->force,
+              "With --compare: render even where the model's provenance records other data");
   r->add_flag("--json", ro->json, "Timings and metrics as one JSON object on stdout");
   r->add_flag("-q,--quiet", ro->quiet, "No summary on stderr");
   commands.push_back({r, [ro] { run_render(*ro); }});
@@ -310,10 +371,18 @@ void register_render_commands(CLI::App& app, Commands& commands) {
   auto* t = app.add_subcommand(
       "tile", "Find the tile of a BTF that repeats with the least visible seams (for fit --tile)");
   t->add_option("input", to->input, "A BTF folder or Bonn .zip")->required();
-  t->add_option("--size", to->size, "Tile size WxH; W and H may be ranges, e.g. 20-28x24")
+  t->add_option("--size", to->size,
+                "Tile size WxH; W and H may be ranges, e.g. 20-28x24. The tile chosen has the "
+                "lowest score: its seam error times its aspect ratio (longer side / shorter "
+                "side), so near-square tiles are preferred; ties go to the larger tile")
       ->capture_default_str();
   t->add_option("--images", to->images,
                 "(light, view) images to judge the seams on, spread over all; 0: all")
+      ->capture_default_str();
+  t->add_option("--top", to->top,
+                "List the N best tiles, the best position of each of the N best sizes, with "
+                "their scores")
+      ->check(CLI::Range(std::size_t(1), std::size_t(1000)))
       ->capture_default_str();
   t->add_flag("--json", to->json, "The result as one JSON object");
   commands.push_back({t, [to] { run_tile(*to); }});

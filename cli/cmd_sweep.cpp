@@ -27,7 +27,7 @@ namespace {
 namespace fs = std::filesystem;
 
 struct SweepOptions {
-  std::string btf, tile, out, methods, precision = "f16";
+  std::string btf, tile, out, methods, precision;
   std::vector<std::size_t> components;  // sizes instead of the ladders
   int iterations = 0, threads = 0;
   std::uint64_t seed = 1;
@@ -71,7 +71,7 @@ std::vector<std::string> method_names(const SweepOptions& o) {
 SweepRequest sweep_request(const SweepOptions& o) {
   SweepRequest r;
   r.methods = method_names(o);
-  r.encoding = parse_factor_encoding(o.precision, "--precision");
+  if (!o.precision.empty()) r.encoding = parse_factor_encoding(o.precision, "--precision");
   r.threads = o.threads;
   r.seed = o.seed;
   r.iterations = o.iterations;
@@ -189,7 +189,7 @@ nlohmann::json sweep_json(const SweepOptions& o, const Btf& tile, const SweepOut
   j["lights"] = tile.lights().size();
   j["views"] = tile.views().size();
   j["bit_depth"] = to_string(tile.format());
-  j["precision"] = o.precision;
+  j["precision"] = o.precision.empty() ? "smallest" : o.precision;
   j["seed"] = o.seed;
   j["settings"] = s.total;
   j["stopped"] = s.stopped;
@@ -225,6 +225,7 @@ void run_sweep_command(const SweepOptions& o) {
     throw Error(Error::Kind::kIo, fmt::format("cannot create the folder '{}': {}; check the path "
                                               "and its permissions",
                                               o.out, ec.message()));
+  r.source = {o.btf, src.info().width, src.info().height};
   ProgressPrinter printer;
   if (!o.quiet) r.progress = [&](const SweepProgress& p) { printer(p); };
   r.stop = &g_stop;
@@ -234,7 +235,7 @@ void run_sweep_command(const SweepOptions& o) {
     s = run_sweep(tile, r);
   }
   const nlohmann::json j = sweep_json(o, tile, s);
-  const std::string text = j.dump(2) + "\n";
+  const std::string text = json_text(j);
   write_file_atomically(fs::path(o.out) / "sweep.json",
                         std::span(reinterpret_cast<const std::uint8_t*>(text.data()), text.size()),
                         "sweep");
@@ -254,7 +255,8 @@ void run_sweep_command(const SweepOptions& o) {
   ro.skipped = s.skipped;
   ro.note =
       fmt::format("{} of {} settings fitted, factors stored as {}, seed {}{}", s.models.size(),
-                  s.total, o.precision, o.seed, s.stopped ? " (interrupted)" : "");
+                  s.total, o.precision.empty() ? "q8 (gm: f16)" : o.precision, o.seed,
+                  s.stopped ? " (interrupted)" : "");
   write_report(o.out, o.btf, s.models, ro);
   if (!o.quiet)
     fmt::print(stderr, "wrote {} and {}{}\n", (fs::path(o.out) / "index.html").string(),
@@ -296,8 +298,8 @@ void register_sweep_commands(CLI::App& app, Commands& commands) {
   auto* methods = c->add_option("--methods", opt->methods, methods_help());
   c->add_option("--precision", opt->precision,
                 "Factors stored as f16, f32 or q8 (8 bits; the Gaussian mixture takes f16 or f32 "
-                "and is skipped with q8)")
-      ->capture_default_str();
+                "and is skipped with q8); default: each method's smallest, q8 (gm: f16), so "
+                "that files are compared as small as their precision allows");
   c->add_option("--components", opt->components,
                 "Sizes fitted instead of each method's ladder, comma-separated: mixture "
                 "components M (gm), eigen-images (pca-btf, pca-rf), components per cluster (lpca)")

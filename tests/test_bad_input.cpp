@@ -314,10 +314,10 @@ TEST_F(BadInput, ModelBitFlipped) {
 TEST_F(BadInput, ModelOfANewerVersion) {
   fit();
   std::string bytes = read_bytes(p("m.btfgmm"));
-  bytes[8] = 3;  // the format version, u32 little-endian at byte 8
+  bytes[8] = 4;  // the format version, u32 little-endian at byte 8
   write_bytes(p("new.btfgmm"), bytes);
   expect_model_refused(p("new.btfgmm"),
-                       {p("new.btfgmm"), "format version 3", "use a newer btfgmm"});
+                       {p("new.btfgmm"), "format version 4", "use a newer btfgmm"});
 }
 
 TEST_F(BadInput, ModelOfZeroBytes) {
@@ -328,8 +328,8 @@ TEST_F(BadInput, ModelOfZeroBytes) {
 TEST_F(BadInput, ModelThatIsAPng) {
   generate();
   fs::copy_file(p("btf/") + kImage, p("png.btfgmm"));
-  expect_model_refused(p("png.btfgmm"), {p("png.btfgmm"), "it is a PNG image",
-                                         "give a .btfgmm file written by 'btfgmm fit'"});
+  expect_model_refused(p("png.btfgmm"), {p("png.btfgmm"), "is a PNG image, not a btfgmm model",
+                                         "fitted to a folder of BTF images: btfgmm fit FOLDER"});
 }
 
 TEST_F(BadInput, EvalAnglesOutOfRangeOrNan) {
@@ -398,6 +398,101 @@ TEST_F(BadInput, FullDisk) {
   expect_refused(run("decode " + p("ok.btfgmm") + " -o " + p("full/dec")),
                  {p("full/dec"), "No space left on device", "free space on that disk"});
   EXPECT_TRUE(leftovers(p("full")).empty()) << leftovers(p("full")).front();
+}
+
+// ---- the wrong thing in the right place: the message names what it is -------------------
+
+// Every image of the BTF renamed from the extension `from` to `to`.
+void rename_images(const fs::path& btf, const std::string& from, const std::string& to) {
+  std::vector<fs::path> images;
+  for (const auto& e : fs::recursive_directory_iterator(btf))
+    if (e.path().extension() == from) images.push_back(e.path());
+  for (const fs::path& image : images) fs::rename(image, fs::path(image).replace_extension(to));
+}
+
+TEST_F(BadInput, FolderOfTiffOrBmpImages) {
+  generate();
+  rename_images(p("btf"), ".png", ".tif");
+  expect_fit_refused(p("btf"), "",
+                     {p("btf") + " holds 30 TIFF images (.tif) and no image btfgmm reads",
+                      "their names are BTF image names", "only the format is wrong",
+                      "btfgmm reads PNG (8- or 16-bit), JPEG and OpenEXR",
+                      "find " + p("btf") + " -name '*.tif' -execdir mogrify -format png {} +"});
+  rename_images(p("btf"), ".tif", ".bmp");
+  expect_refused(run("info " + p("btf")), {"30 BMP images (.bmp)", "only the format is wrong"});
+}
+
+TEST_F(BadInput, ArchiveOrImageGivenAsAModelOrAsData) {
+  // The first bytes of a .tar.gz, a zip and an OpenEXR image.
+  write_bytes(p("c.tar.gz"), std::string("\x1f\x8b\x08\x00", 4) + std::string(600, '\0'));
+  expect_model_refused(p("c.tar.gz"),
+                       {"'" + p("c.tar.gz") + "' is a gzip archive, not a btfgmm model",
+                        "extract it and fit the BTF images it holds: btfgmm fit FOLDER -o "
+                        "model.btfgmm"});
+  write_bytes(p("b.btfgmm"), std::string("PK\x03\x04", 4) + std::string(600, '\0'));
+  expect_model_refused(p("b.btfgmm"), {"is a zip archive, not a btfgmm model",
+                                       "btfgmm fit " + p("b.btfgmm") + " -o model.btfgmm"});
+  write_bytes(p("e.btfgmm"), std::string("\x76\x2f\x31\x01", 4) + std::string(600, '\0'));
+  expect_model_refused(p("e.btfgmm"), {"is an OpenEXR image, not a btfgmm model"});
+  // The archive given as the data to fit.
+  expect_fit_refused(p("c.tar.gz"), "",
+                     {p("c.tar.gz") + " is a gzip archive, not a BTF",
+                      "extract it and give the folder of images it holds"});
+}
+
+TEST_F(BadInput, FolderGivenAsAModel) {
+  generate();
+  const std::string fit_it = "fit a model to it first: btfgmm fit " + p("btf") + " -o model.btfgmm";
+  expect_refused(run("decode " + p("btf") + " -o " + p("dec")),
+                 {"'" + p("btf") + "' is a folder of images, not a model", fit_it});
+  EXPECT_FALSE(fs::exists(p("dec")));
+  expect_refused(run("eval " + p("btf") + " --x 1 --y 2 --light 30,0 --view 0,0"), {fit_it});
+  expect_refused(run("render " + p("btf") + " --compare " + p("btf") + " -o " + p("r.png")),
+                 {"--compare needs a model"});
+}
+
+TEST_F(BadInput, CompareArgumentsSwapped) {
+  fit();
+  expect_refused(run("compare " + p("m.btfgmm") + " " + p("btf")),
+                 {"the arguments are in the wrong order", "give the BTF first, then the models",
+                  "btfgmm compare " + p("btf") + " " + p("m.btfgmm")});
+  expect_refused(run("compare " + p("m.btfgmm") + " " + p("m.btfgmm")),
+                 {p("m.btfgmm") + " is a file; give a folder of BTF images"});
+  // The BTF twice: the second is no model, and the fit that makes one is shown.
+  expect_refused(run("compare " + p("btf") + " " + p("btf")),
+                 {"is a folder of images, not a model", "btfgmm fit " + p("btf") + " -o"});
+}
+
+TEST_F(BadInput, RenderOutputInAFormatNotWritten) {
+  fit();
+  const CliRun r = run("render " + p("m.btfgmm") + " --size 16x16 -o " + p("r.tif"));
+  expect_refused(r, {"cannot write the image '" + p("r.tif") + "'",
+                     "give a name ending in .png, .jpg (or .jpeg) or .exr"});
+  EXPECT_EQ(r.out.find("lit pixels"), std::string::npos) << "refused after rendering: " << r.out;
+  EXPECT_FALSE(fs::exists(p("r.tif")));
+}
+
+TEST_F(BadInput, UnknownMaterialBeforeAnyWork) {
+  const CliRun r = run("generate --material lether -o " + p("x"));
+  expect_refused(
+      r, {"unknown material 'lether' (did you mean 'leather'?)", "corduroy, knit, bumps, leather"});
+  EXPECT_EQ(r.out.find("generating"), std::string::npos) << r.out;
+  EXPECT_FALSE(fs::exists(p("x")));
+}
+
+TEST_F(BadInput, MistypedOptionOrCommand) {
+  generate();
+  CliRun r = run("fit " + p("btf") + " --itterations 3 -o " + p("m.btfgmm"));
+  EXPECT_EQ(r.status, 2) << r.out;
+  expect_refused(r, {"fit: unknown option '--itterations' (did you mean '--iterations'?)",
+                     "'btfgmm fit --help' lists its options"});
+  EXPECT_FALSE(fs::exists(p("m.btfgmm")));
+  r = run("render " + p("btf") + " --sise=64x64 -o " + p("r.png"));
+  expect_refused(r, {"render: unknown option '--sise' (did you mean '--size'?)"});
+  r = run("fitt " + p("btf"));
+  EXPECT_EQ(r.status, 2) << r.out;
+  expect_refused(r, {"unknown command 'fitt' (did you mean 'fit'?)", "generate, info, fit"});
+  expect_refused(run("info " + p("btf") + " --jsn"), {"did you mean '--json'?"});
 }
 
 // ---- limits before allocation (the library) --------------------------------------------
@@ -579,19 +674,19 @@ std::vector<std::uint8_t> patched_model(std::size_t offset, const void* value, s
 }
 
 TEST(Limits, ModelTileAndOriginOutOfRange) {
-  // The payload starts at byte 24 with the method tag (u32 2, "gm"), then width, height
-  // (u32) at byte 30, origin x, y (i32) at byte 38.
+  // The payload starts at byte 24 with the method tag (u32 2, "gm"), then the provenance's
+  // size (u32 0: none recorded), width, height (u32) at byte 34, origin x, y (i32) at byte 42.
   const std::uint32_t big[2] = {65536, 65536};
   std::string msg =
-      error_of([&] { btfgmm::deserialize_model(patched_model(30, big, 8), "big.btfgmm"); });
+      error_of([&] { btfgmm::deserialize_model(patched_model(34, big, 8), "big.btfgmm"); });
   EXPECT_NE(msg.find("'big.btfgmm' is invalid: tile size 65536x65536 is out of range"),
             std::string::npos)
       << msg;
   const std::int32_t far[2] = {2147483647, 0};
-  msg = error_of([&] { btfgmm::deserialize_model(patched_model(38, far, 8), "far.btfgmm"); });
+  msg = error_of([&] { btfgmm::deserialize_model(patched_model(42, far, 8), "far.btfgmm"); });
   EXPECT_NE(msg.find("origin (2147483647, 0) is outside any image"), std::string::npos) << msg;
   const std::int32_t negative[2] = {0, -1};
-  msg = error_of([&] { btfgmm::deserialize_model(patched_model(38, negative, 8), "n.btfgmm"); });
+  msg = error_of([&] { btfgmm::deserialize_model(patched_model(42, negative, 8), "n.btfgmm"); });
   EXPECT_NE(msg.find("origin (0, -1)"), std::string::npos) << msg;
 }
 

@@ -1,6 +1,7 @@
 // The btfgmm command end to end: generate, info, fit, decode, eval, and its errors.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -145,6 +146,120 @@ TEST_F(Cli, ErrorsNameTheProblemAndExitNonZero) {
   r = run("fit " + p("btf") + " -M 3 --iterations 1 -q -o " + p("m.btfgmm"));
   EXPECT_EQ(r.status, 1);
   EXPECT_NE(r.out.find("--overwrite"), std::string::npos) << r.out;
+}
+
+// Lines of `text` holding `needle`.
+std::size_t count_lines_with(const std::string& text, const std::string& needle) {
+  std::size_t n = 0, at = 0;
+  while (at < text.size()) {
+    const std::size_t end = std::min(text.find('\n', at), text.size());
+    n += text.substr(at, end - at).find(needle) != std::string::npos;
+    at = end + 1;
+  }
+  return n;
+}
+
+// " word ": the word alone, spaces either side.
+std::string spaced(const char* word) {
+  std::string s = " ";
+  s += word;
+  s += ' ';
+  return s;
+}
+
+TEST_F(Cli, BareCommandListsTheCommandsWithAnExample) {
+  const CliRun r = run("");
+  EXPECT_EQ(r.status, 0) << r.out;
+  for (const char* command :
+       {"generate", "info", "fit", "decode", "eval", "compare", "render", "tile", "sweep"})
+    EXPECT_NE(r.out.find("\n  " + std::string(command) + " "), std::string::npos)
+        << command << ": " << r.out;
+  EXPECT_NE(r.out.find("Example"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("  btfgmm generate -o corduroy32/ && btfgmm fit corduroy32/"),
+            std::string::npos)
+      << r.out;
+}
+
+TEST_F(Cli, GenerateHelpListsEveryMaterialAndQuietIsQuiet) {
+  CliRun r = run("generate --help");
+  ASSERT_EQ(r.status, 0) << r.out;
+  for (const char* m : {"corduroy", "knit", "bumps", "leather"})
+    EXPECT_NE(r.out.find(spaced(m)), std::string::npos) << m << ": " << r.out;
+  r = run(std::string("generate --size 8 -q ") + kSmall + " -o " + p("btf"));
+  EXPECT_EQ(r.status, 0) << r.out;
+  EXPECT_EQ(r.out, "");
+  EXPECT_TRUE(fs::exists(p("btf/tv000_pv000/tl000_pl000_tv000_pv000.png")));
+}
+
+TEST_F(Cli, EvalLabelsItsValuesAndSaysWhatXAndYAre) {
+  CliRun r = run("eval --help");
+  EXPECT_NE(r.out.find("integers are pixel centres"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("0 the tile's first column"), std::string::npos) << r.out;
+  r = run(std::string("generate --size 8 ") + kSmall + " -o " + p("btf"));
+  ASSERT_EQ(r.status, 0) << r.out;
+  r = run("fit " + p("btf") + " -M 3 --iterations 1 -q -o " + p("m.btfgmm"));
+  ASSERT_EQ(r.status, 0) << r.out;
+  r = run("eval " + p("m.btfgmm") + " --x 3 --y 2 --light 30,90 --view 0,0");
+  ASSERT_EQ(r.status, 0) << r.out;
+  double red = 0, green = 0, blue = 0;
+  char units[64] = {};
+  ASSERT_EQ(
+      std::sscanf(r.out.c_str(), "R %lf  G %lf  B %lf  (%63[^)])", &red, &green, &blue, units), 4)
+      << r.out;
+  EXPECT_STREQ(units, "levels of 0-255");
+  r = run("eval " + p("m.btfgmm") + " --x 3 --y 2 --light 30,90 --view 0,0 --json");
+  const auto j = nlohmann::json::parse(r.out);
+  EXPECT_NEAR(j["rgb"][0].get<double>(), red, 1e-4);
+  EXPECT_NEAR(j["rgb"][2].get<double>(), blue, 1e-4);
+  EXPECT_EQ(j["units"], "levels");
+}
+
+TEST_F(Cli, InfoJsonPrintsADirectionPairALine) {
+  CliRun r = run(std::string("generate --size 8 ") + kSmall + " -o " + p("btf"));
+  ASSERT_EQ(r.status, 0) << r.out;
+  r = run("info --json " + p("btf"));
+  ASSERT_EQ(r.status, 0) << r.out;
+  const auto j = nlohmann::json::parse(r.out);  // still valid JSON
+  EXPECT_EQ(j["light_directions"].size(), 11u);
+  EXPECT_EQ(j["light_directions"][1], nlohmann::json({30.0, 0.0}));
+  EXPECT_EQ(count_lines_with(r.out, "    [30.0, 90.0]"), 1u) << r.out;  // a light
+  EXPECT_EQ(count_lines_with(r.out, "    [45.0, 72.0]"), 1u) << r.out;  // a view
+  // 11 lights and 6 views, a line each, and a line per other field.
+  EXPECT_LT(count_lines_with(r.out, ""), 45u) << r.out;
+}
+
+TEST_F(Cli, TilePrefersNearSquareTilesAndListsTheBest) {
+  CliRun r = run("generate --size 24 --supersample 1 " + std::string(kSmall) + " -o " + p("btf"));
+  ASSERT_EQ(r.status, 0) << r.out;
+  r = run("tile --help");
+  EXPECT_NE(r.out.find("seam error times its aspect ratio"), std::string::npos) << r.out;
+  r = run("tile " + p("btf") + " --size 8-12x8-12 --top 4");
+  ASSERT_EQ(r.status, 0) << r.out;
+  std::vector<std::pair<int, int>> sizes;
+  std::vector<double> scores;
+  std::size_t at = r.out.find("\n   1  ");
+  ASSERT_NE(at, std::string::npos) << r.out;
+  for (int k = 1; k <= 4; ++k) {
+    int rank = 0, x = 0, y = 0, w = 0, h = 0;
+    double score = 0;
+    ASSERT_EQ(
+        std::sscanf(r.out.c_str() + at + 1, "%d %d,%d,%d,%d %lf", &rank, &x, &y, &w, &h, &score), 6)
+        << r.out;
+    EXPECT_EQ(rank, k);
+    sizes.emplace_back(w, h);
+    scores.push_back(score);
+    at = r.out.find('\n', at + 1);
+  }
+  EXPECT_TRUE(std::is_sorted(scores.begin(), scores.end())) << r.out;
+  std::sort(sizes.begin(), sizes.end());
+  EXPECT_EQ(std::unique(sizes.begin(), sizes.end()), sizes.end()) << "one line a size: " << r.out;
+  // The chosen tile (rank 1) is near square: within 1.5 of it.
+  r = run("tile " + p("btf") + " --size 8-12x8-12 --json");
+  const auto j = nlohmann::json::parse(r.out);
+  const double w = j["tile"][2], h = j["tile"][3];
+  EXPECT_LE(std::max(w, h) / std::min(w, h), 1.5) << r.out;
+  EXPECT_NEAR(j["score"].get<double>(),
+              j["seam_error"].get<double>() * std::max(w, h) / std::min(w, h), 1e-9);
 }
 
 }  // namespace

@@ -12,6 +12,7 @@
 #include <filesystem>
 #include <fstream>
 #include <limits>
+#include <optional>
 #include <nlohmann/json.hpp>
 #include <sstream>
 #include <string>
@@ -141,6 +142,29 @@ TEST(Sweep, WritesModelFilesThatLoadAsTheModelsMeasured) {
     EXPECT_EQ(again.quality.ssim, c.quality.ssim);
   }
   fs::remove_all(dir);
+}
+
+// Unless asked, each method is stored as small as it can be: q8, the mixture in f16; an
+// asked encoding applies to every method.
+TEST(Sweep, StoresEachMethodAtItsSmallestUnlessAsked) {
+  const Btf tile = tiny_tile();
+  SweepRequest r;
+  r.methods = {"gm", "pca-btf"};
+  r.ladders["gm"] = {components(2)};
+  r.ladders["pca-btf"] = {components(2)};
+  r.iterations = 2;
+  for (const std::optional<FactorEncoding> asked :
+       {std::optional<FactorEncoding>(), std::optional(FactorEncoding::kF32)}) {
+    r.encoding = asked;
+    const SweepOutcome s = run_sweep(tile, r);
+    ASSERT_EQ(s.models.size(), 2u);
+    const auto& gm = dynamic_cast<const GaussianMixture&>(*s.models[0].model);
+    const auto& pca = dynamic_cast<const PcaBtf&>(*s.models[1].model);
+    EXPECT_EQ(gm.model().precision, asked ? Precision::kF32 : Precision::kF16);
+    EXPECT_EQ(pca.encoding(), asked ? FactorEncoding::kF32 : FactorEncoding::kQ8);
+  }
+  EXPECT_EQ(find_method("gm").fit_encoding, FactorEncoding::kF32);
+  EXPECT_EQ(find_method("pca-btf").fit_encoding, FactorEncoding::kQ8);
 }
 
 TEST(Sweep, ChecksTheRequestAndStopsOnTheFlag) {

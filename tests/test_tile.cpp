@@ -2,6 +2,7 @@
 // has a lower seam error than tiles cut elsewhere.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <random>
 #include <string>
 
@@ -66,6 +67,41 @@ TEST(Tile, FindsBothPeriodsOfKnit) {
   EXPECT_EQ(r.images, 16u);
   const SeamError off = seam_error(btf, {r.tile.x + 3, r.tile.y, 17, 20}, 16);
   EXPECT_GT(off.left_right, 3.0 * r.seam.left_right);
+}
+
+TEST(Tile, PrefersNearSquareTilesAndRanksTheBestSizes) {
+  // Leather has no period shorter than the image: over 8-24 x 8-24 the seam error alone picks
+  // a 16 x 8 strip here (seam error 0.374, against 0.458 for the 8 x 8 tile the score picks).
+  const Btf btf = periodic("leather", 48);
+  TileSearchConfig c;
+  c.min_width = c.min_height = 8;
+  c.max_width = c.max_height = 24;
+  c.images = 16;
+  c.top = 5;
+  const TileSearchResult r = find_seamless_tile(btf, c);
+  const Tile& t = r.tile;
+  EXPECT_LE(double(std::max(t.width, t.height)) / std::min(t.width, t.height), 1.25)
+      << t.width << "x" << t.height;
+  ASSERT_EQ(r.ranked.size(), 5u);
+  EXPECT_EQ(r.ranked[0].tile.width, t.width);
+  EXPECT_EQ(r.ranked[0].tile.height, t.height);
+  EXPECT_DOUBLE_EQ(r.score, r.ranked[0].score);
+  for (std::size_t k = 0; k < r.ranked.size(); ++k) {
+    const TileCandidate& e = r.ranked[k];
+    const double aspect =
+        double(std::max(e.tile.width, e.tile.height)) / std::min(e.tile.width, e.tile.height);
+    EXPECT_DOUBLE_EQ(e.score, e.seam.total * aspect) << k;
+    EXPECT_DOUBLE_EQ(tile_score(e.seam, e.tile.width, e.tile.height), e.score) << k;
+    if (k > 0) {
+      EXPECT_LE(r.ranked[k - 1].score, e.score) << k;
+    }
+    for (std::size_t i = 0; i < k; ++i)  // one entry a size
+      EXPECT_FALSE(r.ranked[i].tile.width == e.tile.width &&
+                   r.ranked[i].tile.height == e.tile.height)
+          << k;
+    // The best position of its size.
+    EXPECT_DOUBLE_EQ(seam_error(btf, e.tile, 16).total, e.seam.total) << k;
+  }
 }
 
 TEST(Tile, ParsesSizesAndRejectsNonsense) {

@@ -2,8 +2,10 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <cctype>
 #include <cmath>
+#include <vector>
 
 namespace btfgmm {
 
@@ -27,6 +29,40 @@ std::string human_seconds(double s) {
 std::string lower(std::string s) {
   for (char& c : s) c = char(std::tolower(static_cast<unsigned char>(c)));
   return s;
+}
+
+std::size_t edit_distance(std::string_view a, std::string_view b) {
+  std::vector<std::size_t> row(b.size() + 1);
+  for (std::size_t j = 0; j <= b.size(); ++j) row[j] = j;
+  for (std::size_t i = 1; i <= a.size(); ++i) {
+    std::size_t diag = row[0];
+    row[0] = i;
+    for (std::size_t j = 1; j <= b.size(); ++j) {
+      const std::size_t up = row[j];
+      row[j] = std::min({row[j] + 1, row[j - 1] + 1, diag + (a[i - 1] == b[j - 1] ? 0 : 1)});
+      diag = up;
+    }
+  }
+  return row[b.size()];
+}
+
+std::string nearest_name(std::string_view given, std::span<const std::string_view> names) {
+  std::string nearest;
+  std::size_t best = 3;  // within two edits
+  for (const std::string_view name : names) {
+    const std::size_t d = edit_distance(given, name);
+    // At most half the name's letters changed: "gn" is near "gm", "xy" is not.
+    if (d < best && 2 * d <= name.size()) {
+      best = d;
+      nearest = std::string(name);
+    }
+  }
+  return nearest;
+}
+
+std::string did_you_mean(std::string_view given, std::span<const std::string_view> names) {
+  const std::string n = nearest_name(given, names);
+  return n.empty() ? std::string() : fmt::format(" (did you mean '{}'?)", n);
 }
 
 double seconds_since(Clock::time_point start) {

@@ -40,6 +40,10 @@ void check_jpeg_complete(std::span<const std::uint8_t> bytes, const std::string&
 // An 8-bit RGB PNG of `rgb` (values rounded and clamped to 0..255; NaN becomes 0).
 std::vector<std::uint8_t> encode_png(int width, int height, std::span<const float> rgb,
                                      const std::string& name);
+// A baseline JPEG of `rgb` (levels as encode_png's), at quality kJpegQuality.
+inline constexpr int kJpegQuality = 95;
+std::vector<std::uint8_t> encode_jpeg(int width, int height, std::span<const float> rgb,
+                                      const std::string& name);
 
 // ---- OpenEXR (exr.cpp) ----
 ImageHeader exr_header(std::span<const std::uint8_t> bytes, const std::string& name);

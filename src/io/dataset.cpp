@@ -9,12 +9,15 @@
 #include <algorithm>
 #include <cstdint>
 #include <map>
+#include <optional>
+#include <string_view>
 #include <system_error>
 #include <utility>
 
 #include "btfgmm/core/error.hpp"
 #include "btfgmm/core/limits.hpp"
 #include "btfgmm/core/text.hpp"
+#include "btfgmm/io/file_kind.hpp"
 #include "btfgmm/io/files.hpp"
 #include "io/angle_names.hpp"
 #include "io/parallel_each.hpp"
@@ -60,6 +63,25 @@ Angles key(const Direction& d) {
 
 // ---- 0. the source ---------------------------------------------------------------------
 
+// The error for a file given as a BTF that is not a .zip: what it holds, where that is known
+// (io/file_kind.hpp), and what to give instead.
+Error not_a_btf(const fs::path& path) {
+  const std::optional<FileKind> kind = identify_file(read_file_start(path, 512));
+  using C = FileKind::Class;
+  const std::string fix =
+      !kind                       ? ""
+      : kind->kind == C::kArchive ? "extract it and give the folder of images it holds"
+      : kind->kind == C::kZip     ? "a zip is read when its name ends in .zip: rename it"
+      : kind->kind == C::kImage   ? "one image is not a BTF: give the folder that holds the images"
+                                  : "";
+  if (fix.empty())
+    return Error(Error::Kind::kArgument,
+                 fmt::format("{} is a file; give a folder of BTF images or a Bonn .zip archive",
+                             path.string()));
+  return Error(Error::Kind::kArgument,
+               fmt::format("{} is {}, not a BTF; {}", path.string(), kind->what, fix));
+}
+
 // Error unless `path` is a folder or a .zip archive; whether it is a zip.
 bool is_zip_source(const fs::path& path) {
   std::error_code ec;
@@ -71,10 +93,7 @@ bool is_zip_source(const fs::path& path) {
             "{} does not exist{}; give a folder of BTF images or a Bonn .zip", path.string(),
             ec && ec != std::errc::no_such_file_or_directory ? " (" + ec.message() + ")" : ""));
   const bool zip = fs::is_regular_file(status);
-  if (zip && !is_zip_name(path))
-    throw Error(Error::Kind::kArgument,
-                fmt::format("{} is a file; give a folder of BTF images or a Bonn .zip archive",
-                            path.string()));
+  if (zip && !is_zip_name(path)) throw not_a_btf(path);
   if (!zip && !fs::is_directory(status))
     throw Error(Error::Kind::kArgument,
                 fmt::format("{} is neither a folder nor a .zip archive", path.string()));
@@ -120,14 +139,70 @@ void check_view_folder(Found& f) {
   }
 }
 
+// Images in formats btfgmm does not read (TIFF, BMP, ...), by format, for the message that
+// says so when nothing else is found.
+struct UnreadImages {
+  std::map<std::string, std::pair<std::size_t, std::string>> formats;  // format: count, ext
+  std::string example;                                                 // one such file
+
+  void add(std::string_view format, const std::string& file, const std::string& rel) {
+    auto& [count, ext] = formats[std::string(format)];
+    if (count++ == 0) ext = file.substr(file.rfind('.'));
+    if (example.empty()) example = rel;
+  }
+};
+
+// The error for a source with no image btfgmm reads: the formats found instead and how to
+// convert them, or the names expected.
+Error no_images_error(const fs::path& path, bool zip, std::uint64_t ignored,
+                      const UnreadImages& unread) {
+  if (unread.formats.empty())
+    return Error(Error::Kind::kFormat,
+                 fmt::format("no BTF images found in {}{}; expected images named like "
+                             "tv000_pv000/tl000_pl000_tv000_pv000.png (UTIA) or "
+                             "'00008 tl000 pl000 tv030 pv030.jpg' (Bonn), or a Bonn .zip",
+                             path.string(),
+                             ignored ? fmt::format(" ({} non-image file{} ignored)", ignored,
+                                                   ignored == 1 ? "" : "s")
+                                     : ""));
+  std::string found;
+  for (const auto& [format, at] : unread.formats)
+    found += fmt::format("{}{} {} image{} ({})", found.empty() ? "" : " and ", at.first, format,
+                         at.first == 1 ? "" : "s", at.second);
+  const std::string file = unread.example.substr(unread.example.rfind('/') + 1);
+  bool named = true;
+  try {
+    parse_image_name(file.substr(0, file.rfind('.')) + ".png");
+  } catch (const Error&) {
+    named = false;
+  }
+  const std::string ext = unread.formats.begin()->second.second;
+  const std::string folder = zip ? "FOLDER" : path.string();
+  return Error(
+      Error::Kind::kFormat,
+      fmt::format("{} holds {} and no image btfgmm reads{}; btfgmm reads PNG (8- or 16-bit), "
+                  "JPEG and OpenEXR (.png, .jpg, .jpeg, .exr): {}convert the images keeping their "
+                  "names, e.g. with ImageMagick: find {} -name '*{}' -execdir mogrify -format png "
+                  "{{}} +",
+                  path.string(), found,
+                  named ? fmt::format(" (their names are BTF image names, e.g. {}: only the "
+                                      "format is wrong)",
+                                      unread.example)
+                        : std::string(),
+                  zip ? "extract the zip to a FOLDER and " : "", folder, ext));
+}
+
 // The images among the files (anything else is counted in `ignored`), their names parsed.
 std::vector<Found> parse_image_names(const StoredFiles& files, const fs::path& path, bool zip,
                                      std::uint64_t& ignored) {
   std::vector<Found> found;
+  UnreadImages unread;
   for (const auto& [rel, bytes] : files) {
     const std::string display = zip ? entry_display(path, rel) : (path / rel).string();
     const std::string file = rel.substr(rel.find_last_of('/') + 1);
     if (macos_junk(rel) || !image_format_from_name(file)) {
+      if (const auto format = unread_image_format_from_name(file); format && !macos_junk(rel))
+        unread.add(*format, file, rel);
       ++ignored;
       continue;
     }
@@ -145,15 +220,7 @@ std::vector<Found> parse_image_names(const StoredFiles& files, const fs::path& p
     check_view_folder(f);
     found.push_back(std::move(f));
   }
-  if (found.empty())
-    throw Error(Error::Kind::kFormat,
-                fmt::format("no BTF images found in {}{}; expected images named like "
-                            "tv000_pv000/tl000_pl000_tv000_pv000.png (UTIA) or "
-                            "'00008 tl000 pl000 tv030 pv030.jpg' (Bonn), or a Bonn .zip",
-                            path.string(),
-                            ignored ? fmt::format(" ({} non-image file{} ignored)", ignored,
-                                                  ignored == 1 ? "" : "s")
-                                    : ""));
+  if (found.empty()) throw no_images_error(path, zip, ignored, unread);
   return found;
 }
 

@@ -124,4 +124,20 @@ std::vector<std::uint8_t> read_whole_file(const fs::path& path, const char* what
   return bytes;
 }
 
+std::vector<std::uint8_t> read_file_start(const fs::path& path, std::size_t max_bytes) {
+  Fd fd(::open(path.c_str(), O_RDONLY | O_CLOEXEC));
+  struct stat st {};
+  if (fd.get() < 0 || ::fstat(fd.get(), &st) != 0 || !S_ISREG(st.st_mode)) return {};
+  std::vector<std::uint8_t> bytes(max_bytes);
+  std::size_t used = 0;
+  while (used < bytes.size()) {
+    const ssize_t n = ::read(fd.get(), bytes.data() + used, bytes.size() - used);
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0) break;
+    used += std::size_t(n);
+  }
+  bytes.resize(used);
+  return bytes;
+}
+
 }  // namespace btfgmm

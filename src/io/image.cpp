@@ -8,6 +8,7 @@
 
 #include <algorithm>
 #include <cerrno>
+#include <cmath>
 #include <cstdio>
 #include <cstring>
 #include <memory>
@@ -236,15 +237,40 @@ void write_exr(const fs::path& path, int width, int height, std::span<const floa
   write_file_atomically(path, detail::encode_exr(width, height, rgb, path.string()), "image");
 }
 
-void write_image(const fs::path& path, const Image& image) {
-  const auto f = image_format_from_name(path.filename().string());
-  if (f == ImageFormat::kPng) return write_png(path, image.width, image.height, image.rgb);
-  if (f == ImageFormat::kExr) return write_exr(path, image.width, image.height, image.rgb);
+void write_jpeg(const fs::path& path, int width, int height, std::span<const float> rgb) {
+  check_write_args(path, width, height, rgb);
+  write_file_atomically(path, detail::encode_jpeg(width, height, rgb, path.string()), "image");
+}
+
+ImageFormat output_image_format(const fs::path& path) {
+  if (const auto f = image_format_from_name(path.filename().string())) return *f;
   throw Error(Error::Kind::kArgument,
-              fmt::format("cannot write {}: images are written as .png (8-bit) or .exr "
-                          "(float); JPEG and other formats are not written, change the "
-                          "extension",
+              fmt::format("cannot write the image '{}': its extension names no format btfgmm "
+                          "writes; give a name ending in .png, .jpg (or .jpeg) or .exr",
                           path.string()));
+}
+
+void write_image(const fs::path& path, const Image& image) {
+  switch (output_image_format(path)) {
+    case ImageFormat::kPng:
+      return write_png(path, image.width, image.height, image.rgb);
+    case ImageFormat::kJpeg:
+      return write_jpeg(path, image.width, image.height, image.rgb);
+    case ImageFormat::kExr:
+      return write_exr(path, image.width, image.height, image.rgb);
+  }
+}
+
+void write_picture(const fs::path& path, int width, int height, std::span<const float> levels) {
+  if (output_image_format(path) != ImageFormat::kExr)
+    return write_image(path, {width, height, SampleFormat::kLdr8, {levels.begin(), levels.end()}});
+  // sRGB levels to linear values (IEC 61966-2-1), levels above 255 along the same curve.
+  std::vector<float> linear(levels.size());
+  for (std::size_t i = 0; i < levels.size(); ++i) {
+    const double e = std::max(0.0, double(levels[i]) / 255.0);
+    linear[i] = float(e <= 0.04045 ? e / 12.92 : std::pow((e + 0.055) / 1.055, 2.4));
+  }
+  write_exr(path, width, height, linear);
 }
 
 }  // namespace btfgmm

@@ -3,6 +3,7 @@
 
 #include <fmt/format.h>
 
+#include <mutex>
 #include <span>
 #include <system_error>
 #include <vector>
@@ -17,7 +18,8 @@ namespace btfgmm {
 namespace fs = std::filesystem;
 using detail::angles;
 
-void write_utia(const Btf& btf, const fs::path& folder, std::optional<ImageFormat> format) {
+void write_utia(const Btf& btf, const fs::path& folder, std::optional<ImageFormat> format,
+                const std::function<void(double fraction)>& progress) {
   const ImageFormat f =
       format.value_or(btf.format() == SampleFormat::kHdr ? ImageFormat::kExr : ImageFormat::kPng);
   if (f == ImageFormat::kJpeg)
@@ -34,6 +36,8 @@ void write_utia(const Btf& btf, const fs::path& folder, std::optional<ImageForma
       throw Error(Error::Kind::kIo, fmt::format("cannot create the folder {}: {}",
                                                 view_dirs[v].string(), ec.message()));
   }
+  std::mutex progress_mutex;
+  std::size_t written = 0;
   detail::parallel_each<detail::NoState>(
       btf.image_count(), [] { return detail::NoState{}; },
       [&](detail::NoState&, std::size_t i) {
@@ -44,6 +48,10 @@ void write_utia(const Btf& btf, const fs::path& folder, std::optional<ImageForma
           write_exr(p, btf.width(), btf.height(), px);
         else
           write_png(p, btf.width(), btf.height(), px);
+        if (progress) {
+          const std::lock_guard<std::mutex> lock(progress_mutex);
+          progress(double(++written) / double(btf.image_count()));
+        }
       });
 }
 

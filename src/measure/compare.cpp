@@ -87,6 +87,51 @@ void picture_pairs(ModelComparison& c, const Btf& original, const Btf& decoded,
 
 }  // namespace
 
+std::string_view to_string(DataMatch m) {
+  switch (m) {
+    case DataMatch::kSame:
+      return "same";
+    case DataMatch::kNotRecorded:
+      return "not recorded";
+    case DataMatch::kOtherContent:
+      return "other content";
+    case DataMatch::kOtherDirections:
+      return "other directions";
+  }
+  return "?";
+}
+
+DataCheck check_fitted_data(const Representation& model, const std::string& model_name,
+                            const Btf& tile, const DataSource& data) {
+  const Provenance& p = model.provenance();
+  const ModelFrame& f = model.frame();
+  const std::string recorded = describe_source(p, f.origin);
+  const std::string given = data.name.empty() ? std::string("the data") : "'" + data.name + "'";
+  if (!(tile.lights() == f.lights) || !(tile.views() == f.views) ||
+      (tile.format() == SampleFormat::kHdr) != (f.format == SampleFormat::kHdr))
+    return {DataMatch::kOtherDirections,
+            fmt::format("{} is not the data '{}' was fitted to: the model records {} with {} "
+                        "lights x {} views of {} data, and {} has {} x {} of {} data",
+                        given, model_name, recorded, f.lights.size(), f.views.size(),
+                        to_string(f.format), given, tile.lights().size(), tile.views().size(),
+                        to_string(tile.format()))};
+  if (!p.recorded)
+    return {DataMatch::kNotRecorded,
+            fmt::format("'{}' records no provenance (written by an older btfgmm), so {} cannot "
+                        "be checked against the data it was fitted to",
+                        model_name, given)};
+  if (tile_content_hash(tile) == p.data.content_hash) return {};
+  const std::string images =
+      data.image_width > 0 ? fmt::format(" ({}x{} images)", data.image_width, data.image_height)
+                           : "";
+  return {
+      DataMatch::kOtherContent,
+      fmt::format("{} is not the data '{}' was fitted to, a partial match (the same light "
+                  "and view directions, other values): the model records {}; the same tile "
+                  "of {}{} has content hash {}",
+                  given, model_name, recorded, given, images, hash_text(tile_content_hash(tile)))};
+}
+
 ModelComparison compare_model(const Btf& original, std::shared_ptr<const Representation> model,
                               const std::string& name, std::uint64_t file_bytes,
                               const CompareOptions& options) {
@@ -99,6 +144,7 @@ ModelComparison compare_model(const Btf& original, std::shared_ptr<const Represe
   c.name = name;
   c.model = std::move(model);
   c.file_bytes = file_bytes;
+  if (c.model->provenance().recorded) c.fit_seconds = c.model->provenance().fit.seconds;
   c.tile = {f.origin.x, f.origin.y, f.width, f.height};
   c.quality = measure_quality(original, decoded, 0.0, options.ssim);
   c.mean_brdf = mean_brdf(original);

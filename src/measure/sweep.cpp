@@ -60,7 +60,7 @@ std::vector<Setting> sweep_settings(const ModelFrame& frame, const SweepRequest&
     const std::vector<MethodSettings> ladder =
         own != r.ladders.end() ? own->second : m->ladder(frame);
     for (MethodSettings s : ladder) {
-      s.encoding = r.encoding;
+      s.encoding = r.encoding.value_or(m->smallest_encoding);
       s.threads = r.threads;
       s.seed = r.seed;
       if (r.iterations) s.iterations = r.iterations;
@@ -113,8 +113,8 @@ class Reporter {
 
 // Fits one setting, counts its file bytes, writes the file if asked, and measures the model
 // read back from those bytes.
-ModelComparison fit_and_measure(const Btf& tile, const SweepRequest& r, Setting& s,
-                                std::size_t index, const Reporter& report,
+ModelComparison fit_and_measure(const Btf& tile, const DataFingerprint& data, const SweepRequest& r,
+                                Setting& s, std::size_t index, const Reporter& report,
                                 std::set<std::string>& names) {
   if (r.progress)
     s.settings.progress = [&](double fraction, std::string_view stage) {
@@ -124,7 +124,7 @@ ModelComparison fit_and_measure(const Btf& tile, const SweepRequest& r, Setting&
       report(SweepProgress::Event::kFit, s, index, p);
     };
   const auto t0 = Clock::now();
-  std::shared_ptr<const Representation> model = s.method->fit(tile, s.settings);
+  std::shared_ptr<const Representation> model = fit_and_record(*s.method, tile, s.settings, data);
   const double fit_seconds = seconds_since(t0);
   s.settings.progress = nullptr;
   report(SweepProgress::Event::kMeasure, s, index);
@@ -170,6 +170,7 @@ SweepOutcome run_sweep(const Btf& tile, const SweepRequest& request) {
   out.total = settings.size();
   const Reporter report(request, settings.size());
   std::set<std::string> names;
+  const DataFingerprint data = fingerprint_of(tile, request.source);
   for (std::size_t k = 0; k < settings.size(); ++k) {
     if (request.stop && request.stop->load()) {
       out.stopped = true;
@@ -178,7 +179,7 @@ SweepOutcome run_sweep(const Btf& tile, const SweepRequest& request) {
     Setting& s = settings[k];
     report(SweepProgress::Event::kStart, s, k);
     try {
-      out.models.push_back(fit_and_measure(tile, request, s, k, report, names));
+      out.models.push_back(fit_and_measure(tile, data, request, s, k, report, names));
       out.settings.push_back(s.text);
     } catch (const Error& e) {
       // A fit stopped by the flag ends the sweep; any other refused setting is recorded.

@@ -170,20 +170,33 @@ class SeamSums {
     if (only) {
       best.tile = *only;
       best.seam = judge(only->width, only->height, only->x, only->y);
+      best.score = tile_score(best.seam, only->width, only->height);
       best.candidates = 1;
       return best;
     }
+    // The best position of every size, larger sizes first (so that ties keep them).
+    std::vector<TileCandidate> per_size;
     for (int w = c_.max_width; w >= c_.min_width; --w)
-      for (int h = c_.max_height; h >= c_.min_height; --h)
+      for (int h = c_.max_height; h >= c_.min_height; --h) {
+        TileCandidate size_best;
+        size_best.score = std::numeric_limits<double>::infinity();
         for (int y0 = 0; y0 + h <= H_; ++y0)
           for (int x0 = 0; x0 + w <= W_; ++x0) {
             const SeamError e = judge(w, h, x0, y0);
             ++best.candidates;
-            if (e.total < best.seam.total) {
-              best.seam = e;
-              best.tile = {x0, y0, w, h};
-            }
+            const double score = tile_score(e, w, h);
+            if (score < size_best.score) size_best = {{x0, y0, w, h}, e, score};
           }
+        per_size.push_back(size_best);
+      }
+    std::stable_sort(
+        per_size.begin(), per_size.end(),
+        [](const TileCandidate& a, const TileCandidate& b) { return a.score < b.score; });
+    per_size.resize(std::min(per_size.size(), std::max<std::size_t>(c_.top, 1)));
+    best.tile = per_size[0].tile;
+    best.seam = per_size[0].seam;
+    best.score = per_size[0].score;
+    best.ranked = std::move(per_size);
     return best;
   }
 
@@ -240,6 +253,10 @@ std::pair<int, int> parse_range(const std::string& s, const std::string& option,
 }
 
 }  // namespace
+
+double tile_score(const SeamError& seam, int width, int height) {
+  return seam.total * double(std::max(width, height)) / double(std::min(width, height));
+}
 
 TileSearchConfig parse_tile_search_size(const std::string& text, const std::string& option) {
   const std::size_t x = text.find('x');

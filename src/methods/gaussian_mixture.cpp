@@ -12,6 +12,8 @@
 namespace btfgmm {
 
 GaussianMixture::GaussianMixture(BtfModel model) : model_(std::move(model)) {
+  set_provenance(std::move(model_.provenance));  // the Representation's is the one
+  model_.provenance = {};
   frame_.lights = model_.lights;
   frame_.views = model_.views;
   frame_.width = model_.width;
@@ -46,6 +48,25 @@ std::vector<std::uint8_t> GaussianMixture::payload() const {
   return mixture_payload(model_);
 }
 
+namespace {
+
+// The unit of each variable (docs/ALGORITHM.md, "Units and the variance floor"): what a
+// value of 1 in the model means, for reading L and the parameters.
+std::string units_text(const BtfModel& m) {
+  const auto& u = m.scaling.unit;
+  const double deg = 180.0 / 3.14159265358979323846;
+  const std::string colour =
+      m.format == SampleFormat::kHdr
+          ? fmt::format("{:.4g} (1/255 of the data's range)", u[6])
+          : (u[6] == 1.0 ? std::string("1 level of 0-255") : fmt::format("{:.4g} levels", u[6]));
+  return fmt::format(
+      "x, y {:g} pixel; light angles {:.3g} deg and view angles {:.3g} deg (each "
+      "set's sampling step); colour {}",
+      u[0], u[2] * deg, u[4] * deg, colour);
+}
+
+}  // namespace
+
 std::vector<std::pair<std::string, std::string>> GaussianMixture::details() const {
   const FitSettings& s = model_.settings;
   return {
@@ -53,7 +74,10 @@ std::vector<std::pair<std::string, std::string>> GaussianMixture::details() cons
                                  s.components, s.dropped)},
       {"fit", fmt::format("{} of at most {} EM iterations, epsilon {:g}, seed {}", s.iterations,
                           s.max_iterations, s.epsilon, s.seed)},
-      {"log-lik.", fmt::format("{:.6f} per sample (model units)", s.log_likelihood)},
+      {"log-lik.", fmt::format("{:.6f} nats per sample, L of Eq. (3) for the parameters stored "
+                               "(the density of the 9 variables, each in its model unit)",
+                               s.log_likelihood)},
+      {"model units", units_text(model_)},
       {"precision", model_.precision == Precision::kF16 ? "16-bit float" : "32-bit float"},
   };
 }

@@ -121,16 +121,13 @@ void Lpca::measured_pixel(std::size_t light, std::size_t view, int x, int y, flo
   const std::size_t dims = frame().lights.size() * frame().views.size() * 3,
                     o = (light * frame().views.size() + view) * 3,
                     t = std::size_t(y) * std::size_t(frame().width) + std::size_t(x),
-                    a = cluster_[t], c = components_, texels = frame().pixels();
-  for (std::size_t ch = 0; ch < 3; ++ch) rgb[ch] = means_[a * dims + o + ch];
-  for (std::size_t k = 0; k < c; ++k) {
-    const float w = weights_[k * texels + t];
-    for (std::size_t ch = 0; ch < 3; ++ch) rgb[ch] += w * basis_[(a * c + k) * dims + o + ch];
-  }
+                    a = cluster_[t], c = components_;
+  detail::mean_plus_components(means_.data() + a * dims + o, basis_.data() + a * c * dims + o, dims,
+                               weights_.data() + t, frame().pixels(), c, 3, rgb);
 }
 
 // Each cluster's mean and components at this pair first (3 values each), then per texel its
-// cluster's mean + Σ_k w_k component_k, in measured_pixel's order.
+// cluster's mean + Σ_k w_k component_k, as measured_pixel.
 void Lpca::measured_image(std::size_t light, std::size_t view, float* rgb) const {
   const std::size_t dims = frame().lights.size() * frame().views.size() * 3,
                     o = (light * frame().views.size() + view) * 3, c = components_,
@@ -143,12 +140,7 @@ void Lpca::measured_image(std::size_t light, std::size_t view, float* rgb) const
   }
   for (std::size_t t = 0; t < texels; ++t) {
     const float* s = slice.data() + cluster_[t] * stride;
-    float v[3] = {s[0], s[1], s[2]};
-    for (std::size_t k = 0; k < c; ++k) {
-      const float w = weights_[k * texels + t];
-      for (std::size_t ch = 0; ch < 3; ++ch) v[ch] += w * s[3 + k * 3 + ch];
-    }
-    std::copy_n(v, 3, rgb + t * 3);
+    detail::mean_plus_components(s, s + 3, 3, weights_.data() + t, texels, c, 3, rgb + t * 3);
   }
 }
 

@@ -4,7 +4,9 @@
 
 #include <fmt/format.h>
 
+#include <array>
 #include <cmath>
+#include <optional>
 #include <vector>
 
 #include "btfgmm/core/error.hpp"
@@ -27,17 +29,20 @@ void MeasuredImages::measured_image(std::size_t light, std::size_t view, float* 
                      rgb + (std::size_t(y) * std::size_t(frame_.width) + std::size_t(x)) * 3);
 }
 
-void MeasuredImages::light_pixel(const Direction& light, std::size_t view, int x, int y,
-                                 float* rgb) const {
+void MeasuredImages::light_pixels(const Direction& light, std::span<const ViewPixel> samples,
+                                  float* rgb) const {
   const auto w = lights_->weights(light);
-  double sum[3] = {0, 0, 0};
-  for (std::size_t a = 0; a < 3; ++a) {
-    if (w.weight[a] == 0.0) continue;
-    float v[3];
-    measured_pixel(w.index[a], view, x, y, v);
-    for (int c = 0; c < 3; ++c) sum[c] += w.weight[a] * double(v[c]);
+  for (std::size_t i = 0; i < samples.size(); ++i) {
+    const ViewPixel& s = samples[i];
+    double sum[3] = {0, 0, 0};
+    for (std::size_t a = 0; a < 3; ++a) {
+      if (w.weight[a] == 0.0) continue;
+      float v[3];
+      measured_pixel(w.index[a], s.view, s.x, s.y, v);
+      for (int c = 0; c < 3; ++c) sum[c] += w.weight[a] * double(v[c]);
+    }
+    for (int c = 0; c < 3; ++c) rgb[i * 3 + std::size_t(c)] = float(sum[c]);
   }
-  for (int c = 0; c < 3; ++c) rgb[c] = float(sum[c]);
 }
 
 void MeasuredImages::light_image(const Direction& light, std::size_t view, float* rgb) const {
@@ -79,6 +84,29 @@ Bilinear bilinear(double qx, double qy, int width, int height) {
 
 }  // namespace
 
+// Up to 3 views x 4 pixels, the light's values of all of them from one light_pixels call.
+void MeasuredImages::predict_one(const Query& q, float* rgb) const {
+  const auto wv = views_->weights(q.view);
+  const Bilinear b = bilinear(q.x, q.y, frame_.width, frame_.height);
+  std::array<ViewPixel, 12> samples;
+  std::array<double, 12> weights;
+  std::size_t n = 0;
+  for (std::size_t a = 0; a < 3; ++a)
+    for (int dy = 0; dy < 2; ++dy)
+      for (int dx = 0; dx < 2; ++dx) {
+        const double w = wv.weight[a] * b.w[dy][dx];
+        if (w == 0.0) continue;
+        samples[n] = {wv.index[a], b.x[dx], b.y[dy]};
+        weights[n++] = w;
+      }
+  float values[12 * 3];
+  light_pixels(q.light, std::span(samples).first(n), values);
+  double sum[3] = {0, 0, 0};
+  for (std::size_t k = 0; k < n; ++k)
+    for (std::size_t c = 0; c < 3; ++c) sum[c] += weights[k] * double(values[k * 3 + c]);
+  for (std::size_t c = 0; c < 3; ++c) rgb[c] = float(sum[c]);
+}
+
 void MeasuredImages::predict(std::span<const Query> queries, std::span<float> rgb) const {
   if (rgb.size() < queries.size() * 3)
     throw Error(Error::Kind::kArgument, "predict: the output holds fewer than 3 floats a query");
@@ -91,34 +119,11 @@ void MeasuredImages::predict(std::span<const Query> queries, std::span<float> rg
   }
   const std::ptrdiff_t n = std::ptrdiff_t(queries.size());
 #pragma omp parallel for schedule(dynamic, 64)
-  for (std::ptrdiff_t i = 0; i < n; ++i) {
-    const Query& q = queries[std::size_t(i)];
-    const auto wv = views_->weights(q.view);
-    const Bilinear b = bilinear(q.x, q.y, frame_.width, frame_.height);
-    double sum[3] = {0, 0, 0};
-    for (std::size_t a = 0; a < 3; ++a) {
-      if (wv.weight[a] == 0.0) continue;
-      for (int dy = 0; dy < 2; ++dy)
-        for (int dx = 0; dx < 2; ++dx) {
-          const double w = wv.weight[a] * b.w[dy][dx];
-          if (w == 0.0) continue;
-          float v[3];
-          light_pixel(q.light, wv.index[a], b.x[dx], b.y[dy], v);
-          for (int c = 0; c < 3; ++c) sum[c] += w * double(v[c]);
-        }
-    }
-    for (int c = 0; c < 3; ++c) rgb[std::size_t(i) * 3 + std::size_t(c)] = float(sum[c]);
-  }
+  for (std::ptrdiff_t i = 0; i < n; ++i)
+    predict_one(queries[std::size_t(i)], rgb.data() + std::size_t(i) * 3);
 }
 
 namespace {
-
-// The index of `d` in `set`, or -1 when it is not a measured direction.
-std::ptrdiff_t measured_index(const DirectionSet& set, const Direction& d) {
-  for (std::size_t i = 0; i < set.size(); ++i)
-    if (set[i].theta_deg == d.theta_deg && set[i].phi_deg == d.phi_deg) return std::ptrdiff_t(i);
-  return -1;
-}
 
 // The tile image `tile` (W x H) repeated over an image of width x height.
 void repeat_tile(const float* tile, int tw, int th, float* out, int width, int height) {
@@ -151,17 +156,16 @@ Btf MeasuredImages::decode(const DirectionSet& lights, const DirectionSet& views
     for (std::ptrdiff_t p = 0; p < pairs; ++p) {
       const Direction& light = lights[std::size_t(p) / views.size()];
       const Direction& view = views[std::size_t(p) % views.size()];
-      const std::ptrdiff_t li = measured_index(frame_.lights, light),
-                           vi = measured_index(frame_.views, view);
-      if (li >= 0 && vi >= 0) {
-        measured_image(std::size_t(li), std::size_t(vi), tile.data());
+      const std::optional<std::size_t> li = frame_.lights.find(light), vi = frame_.views.find(view);
+      if (li && vi) {
+        measured_image(*li, *vi, tile.data());
       } else {
         const auto wv = views_->weights(view);
         std::fill(sum.begin(), sum.end(), 0.0);
         for (std::size_t a = 0; a < 3; ++a) {
           if (wv.weight[a] == 0.0) continue;
-          if (li >= 0)
-            measured_image(std::size_t(li), wv.index[a], part.data());
+          if (li)
+            measured_image(*li, wv.index[a], part.data());
           else
             light_image(light, wv.index[a], part.data());
           for (std::size_t i = 0; i < n; ++i) sum[i] += wv.weight[a] * double(part[i]);

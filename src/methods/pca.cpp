@@ -14,6 +14,7 @@ namespace {
 
 using MatD = Eigen::MatrixXd;
 using RowMatF = Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+using RowMatD = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
 
 // About this many doubles in a block of the data converted for a product.
 constexpr std::size_t kBlockValues = std::size_t(1) << 21;
@@ -39,28 +40,39 @@ class CentredData {
   std::size_t row_step() const { return std::max<std::size_t>(1, kBlockValues / cols()); }
   std::size_t col_step() const { return std::max<std::size_t>(1, kBlockValues / rows()); }
 
-  // Rows [r0, r0 + n) or columns [c0, c0 + n), centred.
-  MatD row_block(std::size_t r0, std::size_t n) const {
-    return x_.middleRows(Eigen::Index(r0), Eigen::Index(n)).cast<double>().rowwise() - mean_;
-  }
-  MatD col_block(std::size_t c0, std::size_t n) const {
-    return x_.middleCols(Eigen::Index(c0), Eigen::Index(n)).cast<double>().rowwise() -
-           mean_.segment(Eigen::Index(c0), Eigen::Index(n));
+  // Rows [r0, r0 + n) and columns [c0, c0 + m), centred, into the top-left of `buffer`
+  // (which holds at least n x m).
+  auto block(std::size_t r0, std::size_t n, std::size_t c0, std::size_t m, RowMatD& buffer) const {
+    auto b = buffer.topLeftCorner(Eigen::Index(n), Eigen::Index(m));
+    b = x_.block(Eigen::Index(r0), Eigen::Index(c0), Eigen::Index(n), Eigen::Index(m))
+            .cast<double>()
+            .rowwise() -
+        mean_.segment(Eigen::Index(c0), Eigen::Index(m));
+    return b;
   }
 
-  // f(block, first column, columns) for every block of columns, in order.
+  // f(block, first row, rows) for every block of rows [r0, r0 + n), centred, in order; and
+  // f(block, first column, columns) for blocks of columns. One buffer serves every block: a
+  // pass over the data allocates (and faults in) no new memory.
   template <class F>
-  void for_col_blocks(F f) const {
-    for (std::size_t c0 = 0; c0 < cols(); c0 += col_step()) {
-      const std::size_t n = std::min(col_step(), cols() - c0);
-      f(col_block(c0, n), Eigen::Index(c0), Eigen::Index(n));
+  void for_row_blocks(F f) const {
+    RowMatD buffer(Eigen::Index(std::min(row_step(), rows())), Eigen::Index(cols()));
+    for (std::size_t r0 = 0; r0 < rows(); r0 += row_step()) {
+      const Eigen::Index n = Eigen::Index(std::min(row_step(), rows() - r0));
+      auto b = buffer.topRows(n);
+      b = x_.middleRows(Eigen::Index(r0), n).cast<double>().rowwise() - mean_;
+      f(b, Eigen::Index(r0), n);
     }
   }
   template <class F>
-  void for_row_blocks(F f) const {
-    for (std::size_t r0 = 0; r0 < rows(); r0 += row_step()) {
-      const std::size_t n = std::min(row_step(), rows() - r0);
-      f(row_block(r0, n), Eigen::Index(r0), Eigen::Index(n));
+  void for_col_blocks(F f) const {
+    MatD buffer(Eigen::Index(rows()), Eigen::Index(std::min(col_step(), cols())));
+    for (std::size_t c0 = 0; c0 < cols(); c0 += col_step()) {
+      const Eigen::Index n = Eigen::Index(std::min(col_step(), cols() - c0));
+      auto b = buffer.leftCols(n);
+      b = x_.middleCols(Eigen::Index(c0), n).cast<double>().rowwise() -
+          mean_.segment(Eigen::Index(c0), n);
+      f(b, Eigen::Index(c0), n);
     }
   }
 
@@ -105,7 +117,7 @@ Eigenpairs descending_eigenpairs(const MatD& g) {
 MatD column_gram(const CentredData& d, double& total) {
   MatD g = MatD::Zero(Eigen::Index(d.cols()), Eigen::Index(d.cols()));
   total = 0.0;
-  d.for_row_blocks([&](const MatD& b, Eigen::Index, Eigen::Index) {
+  d.for_row_blocks([&](const auto& b, Eigen::Index, Eigen::Index) {
     g.noalias() += b.transpose() * b;
     total += b.squaredNorm();
   });
@@ -116,28 +128,60 @@ MatD column_gram(const CentredData& d, double& total) {
 MatD row_gram(const CentredData& d, double& total) {
   MatD g = MatD::Zero(Eigen::Index(d.rows()), Eigen::Index(d.rows()));
   total = 0.0;
-  d.for_col_blocks([&](const MatD& b, Eigen::Index, Eigen::Index) {
+  d.for_col_blocks([&](const auto& b, Eigen::Index, Eigen::Index) {
     g.noalias() += b * b.transpose();
     total += b.squaredNorm();
   });
   return g;
 }
 
-// Xcᵀ u (cols x u.cols()).
+// Columns of the data in a slab of transpose_times: fixed, so that its sums do not depend on
+// the number of threads.
+constexpr std::size_t kSlabColumns = 1024;
+
+// The products below spread fixed pieces of the work over OpenMP's threads, each converting
+// its own blocks; Eigen's products inside a parallel region run on the calling thread (its
+// own threads, at 26 columns and on shared cores, cost more than they gain).
+
+// Xcᵀ u (cols x u.cols()): each slab of columns summed over blocks of rows, in order.
 MatD transpose_times(const CentredData& d, const MatD& u) {
   MatD out(Eigen::Index(d.cols()), u.cols());
-  d.for_col_blocks([&](const MatD& b, Eigen::Index c0, Eigen::Index n) {
-    out.middleRows(c0, n).noalias() = b.transpose() * u;
-  });
+  const std::ptrdiff_t slabs = std::ptrdiff_t((d.cols() + kSlabColumns - 1) / kSlabColumns);
+#pragma omp parallel
+  {
+    const std::size_t step = std::max<std::size_t>(1, kBlockValues / kSlabColumns);
+    RowMatD buffer(Eigen::Index(std::min(step, d.rows())), Eigen::Index(kSlabColumns));
+#pragma omp for schedule(dynamic, 1)
+    for (std::ptrdiff_t k = 0; k < slabs; ++k) {
+      const std::size_t c0 = std::size_t(k) * kSlabColumns,
+                        m = std::min(kSlabColumns, d.cols() - c0);
+      auto slab = out.middleRows(Eigen::Index(c0), Eigen::Index(m));
+      slab.setZero();
+      for (std::size_t r0 = 0; r0 < d.rows(); r0 += step) {
+        const std::size_t n = std::min(step, d.rows() - r0);
+        slab.noalias() += d.block(r0, n, c0, m, buffer).transpose() *
+                          u.middleRows(Eigen::Index(r0), Eigen::Index(n));
+      }
+    }
+  }
   return out;
 }
 
-// Xc v (rows x v.cols()).
+// Xc v (rows x v.cols()), by blocks of rows, each writing its own rows.
 MatD times(const CentredData& d, const MatD& v) {
-  MatD out = MatD::Zero(Eigen::Index(d.rows()), v.cols());
-  d.for_col_blocks([&](const MatD& b, Eigen::Index c0, Eigen::Index n) {
-    out.noalias() += b * v.middleRows(c0, n);
-  });
+  MatD out(Eigen::Index(d.rows()), v.cols());
+  const std::size_t step = d.row_step();
+  const std::ptrdiff_t blocks = std::ptrdiff_t((d.rows() + step - 1) / step);
+#pragma omp parallel
+  {
+    RowMatD buffer(Eigen::Index(std::min(step, d.rows())), Eigen::Index(d.cols()));
+#pragma omp for schedule(dynamic, 1)
+    for (std::ptrdiff_t k = 0; k < blocks; ++k) {
+      const std::size_t r0 = std::size_t(k) * step, n = std::min(step, d.rows() - r0);
+      out.middleRows(Eigen::Index(r0), Eigen::Index(n)).noalias() =
+          d.block(r0, n, 0, d.cols(), buffer) * v;
+    }
+  }
   return out;
 }
 
@@ -179,7 +223,7 @@ MatD randomized_directions(const CentredData& d, std::size_t c, const PcaSetting
   p.singular_values.assign(e.values.begin(), e.values.end());
   p.total_energy = 0.0;
   d.for_row_blocks(
-      [&](const MatD& blk, Eigen::Index, Eigen::Index) { p.total_energy += blk.squaredNorm(); });
+      [&](const auto& blk, Eigen::Index, Eigen::Index) { p.total_energy += blk.squaredNorm(); });
   p.randomized = true;
   return orthonormal_columns(b.transpose() * e.vectors.leftCols(Eigen::Index(c)));
 }
@@ -221,7 +265,6 @@ Pca principal_components(std::span<const float> x, std::size_t rows, std::size_t
 }
 
 std::vector<double> reconstruct(const Pca& p) {
-  using RowMatD = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
   const Eigen::Index n = Eigen::Index(p.rows), d = Eigen::Index(p.cols),
                      c = Eigen::Index(p.components);
   std::vector<double> out(p.rows * p.cols);
@@ -236,7 +279,6 @@ std::vector<double> fit_coordinates(std::span<const float> x, std::size_t rows, 
                                     std::span<const float> mean, std::span<const float> basis,
                                     std::size_t c) {
   assert(x.size() == rows * cols && mean.size() == cols && basis.size() == c * cols);
-  using RowMatD = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
   const MatD bt = Eigen::Map<const RowMatF>(basis.data(), Eigen::Index(c), Eigen::Index(cols))
                       .cast<double>()
                       .transpose();  // cols x c

@@ -53,24 +53,15 @@ void PcaBtf::measured_pixel(std::size_t light, std::size_t view, int x, int y, f
   const std::size_t images = frame().lights.size() * frame().views.size(),
                     p = light * frame().views.size() + view, d = frame().pixels() * 3,
                     o = (std::size_t(y) * std::size_t(frame().width) + std::size_t(x)) * 3;
-  for (std::size_t ch = 0; ch < 3; ++ch) rgb[ch] = mean_[o + ch];
-  for (std::size_t k = 0; k < components_; ++k) {
-    const float w = weights_[k * images + p];
-    for (std::size_t ch = 0; ch < 3; ++ch) rgb[ch] += w * eigen_[k * d + o + ch];
-  }
+  detail::mean_plus_components(mean_.data() + o, eigen_.data() + o, d, weights_.data() + p, images,
+                               components_, 3, rgb);
 }
 
-// mean + Σ_k w_k eigen-image_k, a vectorised pass per eigen-image.
 void PcaBtf::measured_image(std::size_t light, std::size_t view, float* rgb) const {
   const std::size_t images = frame().lights.size() * frame().views.size(),
                     p = light * frame().views.size() + view, d = frame().pixels() * 3;
-  std::copy(mean_.begin(), mean_.end(), rgb);
-  for (std::size_t k = 0; k < components_; ++k) {
-    const float w = weights_[k * images + p];
-    const float* e = eigen_.data() + k * d;
-#pragma omp simd
-    for (std::size_t j = 0; j < d; ++j) rgb[j] += w * e[j];
-  }
+  detail::mean_plus_components(mean_.data(), eigen_.data(), d, weights_.data() + p, images,
+                               components_, d, rgb);
 }
 
 Btf PcaBtf::decode(const DirectionSet& lights, const DirectionSet& views, int width, int height,

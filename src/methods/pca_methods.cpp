@@ -105,15 +105,23 @@ void expect_no_flags(ByteReader& r, std::uint32_t flags) {
 std::optional<std::vector<std::size_t>> measured_indices(const DirectionSet& measured,
                                                          const DirectionSet& asked) {
   std::vector<std::size_t> out;
-  for (std::size_t a = 0; a < asked.size(); ++a) {
-    std::size_t i = 0;
-    while (i < measured.size() && !(measured[i].theta_deg == asked[a].theta_deg &&
-                                    measured[i].phi_deg == asked[a].phi_deg))
-      ++i;
-    if (i == measured.size()) return std::nullopt;
-    out.push_back(i);
+  for (const Direction& d : asked) {
+    const std::optional<std::size_t> i = measured.find(d);
+    if (!i) return std::nullopt;
+    out.push_back(*i);
   }
   return out;
+}
+
+void mean_plus_components(const float* mean, const float* e, std::size_t e_stride, const float* w,
+                          std::size_t w_stride, std::size_t c, std::size_t n, float* out) {
+  std::copy_n(mean, n, out);
+  for (std::size_t k = 0; k < c; ++k) {
+    const float wk = w[k * w_stride];
+    const float* ek = e + k * e_stride;
+#pragma omp simd
+    for (std::size_t j = 0; j < n; ++j) out[j] += wk * ek[j];
+  }
 }
 
 void affine_product(const float* w, const float* basis, const float* mean, std::size_t rows,

@@ -57,9 +57,16 @@ std::vector<float> get_factors_as(ByteReader& r, std::span<const std::uint8_t> p
 void expect_end(ByteReader& r);
 void expect_no_flags(ByteReader& r, std::uint32_t flags);
 
-// The index of every direction of `asked` in `measured`, or nothing if one is not measured.
+// The index of every direction of `asked` in `measured` (DirectionSet::find), or nothing if one
+// is not measured.
 std::optional<std::vector<std::size_t>> measured_indices(const DirectionSet& measured,
                                                          const DirectionSet& asked);
+
+// The reconstruction of every PCA method: out = mean + Σ_k w_k e_k over n values, for k < c,
+// with e_k at e + k * e_stride and w_k at w[k * w_stride] (Koudelka et al. 2003, Sattler et
+// al. 2003, Müller et al. 2003: the mean plus the weighted components).
+void mean_plus_components(const float* mean, const float* e, std::size_t e_stride, const float* w,
+                          std::size_t w_stride, std::size_t c, std::size_t n, float* out);
 
 // out (rows x cols, row-major, rows `out_stride` floats apart) = w (rows x k) x basis (k x
 // cols) + mean (a row of cols), in float: a matrix product (Eigen's).

@@ -75,24 +75,14 @@ std::uint64_t PcaRf::parameter_count() const {
 void PcaRf::measured_pixel(std::size_t light, std::size_t view, int x, int y, float* rgb) const {
   const std::size_t ni = frame().lights.size(), d = frame().pixels() * 3, c = components_,
                     o = (std::size_t(y) * std::size_t(frame().width) + std::size_t(x)) * 3;
-  for (std::size_t ch = 0; ch < 3; ++ch) rgb[ch] = means_[view * d + o + ch];
-  for (std::size_t k = 0; k < c; ++k) {
-    const float w = weights_[(view * c + k) * ni + light];
-    for (std::size_t ch = 0; ch < 3; ++ch) rgb[ch] += w * eigen_[(view * c + k) * d + o + ch];
-  }
+  detail::mean_plus_components(means_.data() + view * d + o, eigen_.data() + view * c * d + o, d,
+                               weights_.data() + view * c * ni + light, ni, c, 3, rgb);
 }
 
-// mean_view + Σ_k w_k eigen-image_k, a vectorised pass per eigen-image.
 void PcaRf::measured_image(std::size_t light, std::size_t view, float* rgb) const {
   const std::size_t ni = frame().lights.size(), d = frame().pixels() * 3, c = components_;
-  std::copy(means_.begin() + std::ptrdiff_t(view * d),
-            means_.begin() + std::ptrdiff_t((view + 1) * d), rgb);
-  for (std::size_t k = 0; k < c; ++k) {
-    const float w = weights_[(view * c + k) * ni + light];
-    const float* e = eigen_.data() + (view * c + k) * d;
-#pragma omp simd
-    for (std::size_t j = 0; j < d; ++j) rgb[j] += w * e[j];
-  }
+  detail::mean_plus_components(means_.data() + view * d, eigen_.data() + view * c * d, d,
+                               weights_.data() + view * c * ni + light, ni, c, d, rgb);
 }
 
 Btf PcaRf::decode(const DirectionSet& lights, const DirectionSet& views, int width, int height,

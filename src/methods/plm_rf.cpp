@@ -114,8 +114,16 @@ void PlmRf::measured_image(std::size_t light, std::size_t view, float* rgb) cons
   image_at(to_vector(frame().lights[light]), polynomial_of(light, view).data(), view, rgb);
 }
 
-void PlmRf::light_pixel(const Direction& light, std::size_t view, int x, int y, float* rgb) const {
-  pixel_at(to_vector(light), polynomial_at(light, view).data(), view, x, y, rgb);
+// The blended polynomial is made once per view: predict gives the samples grouped by view.
+void PlmRf::light_pixels(const Direction& light, std::span<const ViewPixel> samples,
+                         float* rgb) const {
+  const Vec3 w = to_vector(light);
+  Polynomial poly{};
+  for (std::size_t i = 0; i < samples.size(); ++i) {
+    const ViewPixel& s = samples[i];
+    if (i == 0 || s.view != samples[i - 1].view) poly = polynomial_at(light, s.view);
+    pixel_at(w, poly.data(), s.view, s.x, s.y, rgb + i * 3);
+  }
 }
 
 void PlmRf::light_image(const Direction& light, std::size_t view, float* rgb) const {

@@ -64,8 +64,8 @@ void PtmRf::image_at(const std::array<double, kCoefficients>& terms, std::size_t
              t5 * c[5 * n + j];
 }
 
-void PtmRf::light_pixel(const Direction& light, std::size_t view, int x, int y, float* rgb) const {
-  const auto terms = basis(light);
+void PtmRf::pixel_at(const std::array<double, kCoefficients>& terms, std::size_t view, int x, int y,
+                     float* rgb) const {
   const std::size_t n = image_values(frame());
   const std::size_t at = (std::size_t(y) * std::size_t(frame().width) + std::size_t(x)) * 3;
   const float* c = coefficients_.data() + view * kCoefficients * n + at;
@@ -76,12 +76,19 @@ void PtmRf::light_pixel(const Direction& light, std::size_t view, int x, int y, 
   }
 }
 
+void PtmRf::light_pixels(const Direction& light, std::span<const ViewPixel> samples,
+                         float* rgb) const {
+  const auto terms = basis(light);
+  for (std::size_t i = 0; i < samples.size(); ++i)
+    pixel_at(terms, samples[i].view, samples[i].x, samples[i].y, rgb + i * 3);
+}
+
 void PtmRf::light_image(const Direction& light, std::size_t view, float* rgb) const {
   image_at(basis(light), view, rgb);
 }
 
 void PtmRf::measured_pixel(std::size_t light, std::size_t view, int x, int y, float* rgb) const {
-  light_pixel(frame().lights[light], view, x, y, rgb);
+  pixel_at(basis(frame().lights[light]), view, x, y, rgb);
 }
 
 void PtmRf::measured_image(std::size_t light, std::size_t view, float* rgb) const {

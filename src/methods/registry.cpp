@@ -2,12 +2,16 @@
 #include "btfgmm/methods/registry.hpp"
 
 #include <fmt/format.h>
+#include <omp.h>
 
 #include <algorithm>
 #include <array>
 
 #include "btfgmm/core/error.hpp"
+#include "btfgmm/core/text.hpp"
+#include "btfgmm/io/file_kind.hpp"
 #include "btfgmm/io/files.hpp"
+#include "btfgmm/io/image.hpp"
 #include "btfgmm/methods/gaussian_mixture.hpp"
 #include "btfgmm/methods/lpca.hpp"
 #include "btfgmm/methods/pca_btf.hpp"
@@ -57,7 +61,8 @@ const std::vector<MethodInfo>& table() {
   static const std::vector<MethodInfo> methods = {
       {"gm", "Gaussian mixture of product components over (x, y, light, view, RGB)",
        "the paper btfgmm started from, Eq. (1)-(11)", "--components M (600), --iterations (40)",
-       fit_gaussian_mixture, read_gaussian_mixture, mixture_ladder},
+       fit_gaussian_mixture, read_gaussian_mixture, mixture_ladder, FactorEncoding::kF32,
+       FactorEncoding::kF16},
       {"pca-btf", "PCA BTF: one PCA of all images", "Koudelka, Magda, Belhumeur, Kriegman 2003",
        "--components c (eigen-images, 61)", fit_pca_btf, read_pca_btf, pca_btf_ladder},
       {"pca-rf", "PCA RF: a PCA of each view's images", "Sattler, Sarlette, Klein 2003",
@@ -76,23 +81,42 @@ const std::vector<MethodInfo>& table() {
   return methods;
 }
 
-// Levenshtein distance, for "did you mean".
-std::size_t edit_distance(std::string_view a, std::string_view b) {
-  std::vector<std::size_t> row(b.size() + 1);
-  for (std::size_t j = 0; j <= b.size(); ++j) row[j] = j;
-  for (std::size_t i = 1; i <= a.size(); ++i) {
-    std::size_t diag = row[0];
-    row[0] = i;
-    for (std::size_t j = 1; j <= b.size(); ++j) {
-      const std::size_t up = row[j];
-      row[j] = std::min({row[j] + 1, row[j - 1] + 1, diag + (a[i - 1] == b[j - 1] ? 0 : 1)});
-      diag = up;
-    }
-  }
-  return row[b.size()];
+// The settings a fit was asked for, as its provenance records them: those set (a size left
+// at 0 took the method's default, which its size text gives), the seed, the encoding and
+// the threads.
+std::vector<std::pair<std::string, std::string>> settings_record(const MethodInfo& method,
+                                                                 const MethodSettings& s) {
+  std::vector<std::pair<std::string, std::string>> out = {{"method", std::string(method.name)}};
+  auto add = [&](const char* name, std::size_t v) {
+    if (v) out.emplace_back(name, std::to_string(v));
+  };
+  add("components", s.components);
+  add("clusters", s.clusters);
+  add("degree", s.degree);
+  add("iterations", std::size_t(std::max(s.iterations, 0)));
+  out.emplace_back("seed", std::to_string(s.seed));
+  out.emplace_back("precision", std::string(to_string(s.encoding)));
+  out.emplace_back("threads", std::to_string(s.threads > 0 ? s.threads : omp_get_max_threads()));
+  return out;
 }
 
 }  // namespace
+
+std::unique_ptr<Representation> fit_and_record(const MethodInfo& method, const Btf& tile,
+                                               const MethodSettings& settings,
+                                               const DataFingerprint& data) {
+  const auto t0 = Clock::now();
+  std::unique_ptr<Representation> r = method.fit(tile, settings);
+  Provenance p = r->provenance();  // the mixture's holds its EM log
+  p.recorded = true;
+  p.data = data;
+  p.fit.settings = settings_record(method, settings);
+  p.fit.settings.emplace_back("size", r->size_text());
+  p.fit.seconds = seconds_since(t0);
+  p.fit.runs = 1;
+  r->set_provenance(std::move(p));
+  return r;
+}
 
 std::span<const MethodInfo> all_methods() {
   return table();
@@ -101,39 +125,73 @@ std::span<const MethodInfo> all_methods() {
 const MethodInfo& find_method(std::string_view name) {
   for (const MethodInfo& m : table())
     if (m.name == name) return m;
-  std::string names, nearest;
-  std::size_t best = 3;  // suggest only names within two edits
-  for (const MethodInfo& m : table()) {
-    names += (names.empty() ? "" : ", ") + std::string(m.name);
-    const std::size_t d = edit_distance(name, m.name);
-    if (d < best) {
-      best = d;
-      nearest = std::string(m.name);
-    }
-  }
-  throw Error(
-      Error::Kind::kArgument,
-      fmt::format("unknown method '{}'{}; the methods are: {}", name,
-                  nearest.empty() ? "" : fmt::format(" (did you mean '{}'?)", nearest), names));
+  std::vector<std::string_view> names;
+  for (const MethodInfo& m : table()) names.push_back(m.name);
+  throw Error(Error::Kind::kArgument,
+              fmt::format("unknown method '{}'{}; the methods are: {}", name,
+                          did_you_mean(name, names), fmt::join(names, ", ")));
 }
 
 std::unique_ptr<Representation> read_representation(std::span<const std::uint8_t> bytes,
                                                     const std::string& name) {
   const ModelFileContents c = open_model_file(bytes, name);
   for (const MethodInfo& m : table())
-    if (m.name == c.method) return m.read(c.payload, c.flags, name);
+    if (m.name == c.method) {
+      std::unique_ptr<Representation> r = m.read(c.payload, c.flags, name);
+      r->set_provenance(c.provenance);
+      return r;
+    }
   throw Error(Error::Kind::kFormat,
               fmt::format("model file '{}' holds a '{}' model, a method this btfgmm does not "
                           "know; use a newer btfgmm",
                           name, c.method));
 }
 
+namespace {
+
+// Whether a folder holds images (in it or in its subfolders, as the UTIA layout has them), in
+// any format: a BTF, or one in a format to convert.
+bool holds_images(const std::filesystem::path& folder) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  for (auto it = fs::recursive_directory_iterator(folder, ec); !ec && it != fs::end(it);
+       it.increment(ec)) {
+    if (it.depth() > 1) it.disable_recursion_pending();
+    const std::string name = it->path().filename().string();
+    if (image_format_from_name(name) || unread_image_format_from_name(name)) return true;
+  }
+  return false;
+}
+
+// Error(kArgument) when `path` is a folder, where a model file was expected: a folder of BTF
+// images is fitted first.
+void check_not_folder(const std::filesystem::path& path) {
+  std::error_code ec;
+  if (!std::filesystem::is_directory(path, ec)) return;
+  if (holds_images(path))
+    throw Error(Error::Kind::kArgument,
+                fmt::format("'{}' is a folder of images, not a model; fit a model to it first: "
+                            "btfgmm fit {} -o model.btfgmm (then give model.btfgmm here)",
+                            path.string(), path.string()));
+  throw Error(Error::Kind::kArgument,
+              fmt::format("'{}' is a folder, not a model file; give a .btfgmm file written by "
+                          "'btfgmm fit'",
+                          path.string()));
+}
+
+}  // namespace
+
 std::unique_ptr<Representation> load_representation(const std::filesystem::path& path) {
+  check_not_folder(path);
+  // A file of another kind (an archive of images may be gigabytes) is named from its first
+  // bytes, before it is read whole: the reader refuses it as such.
+  const std::vector<std::uint8_t> start = read_file_start(path, 512);
+  if (identify_file(start)) read_representation(start, path.string());
   return read_representation(read_whole_file(path, "model file"), path.string());
 }
 
 std::vector<std::uint8_t> representation_file_bytes(const Representation& r) {
-  return model_file_bytes(r.method(), r.file_flags(), r.payload());
+  return model_file_bytes(r.method(), r.file_flags(), r.provenance(), r.payload());
 }
 
 std::uint64_t save_representation(const Representation& r, const std::filesystem::path& path) {

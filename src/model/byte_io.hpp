@@ -14,6 +14,7 @@
 
 #include "btfgmm/core/error.hpp"
 #include "btfgmm/model/model.hpp"
+#include "btfgmm/model/provenance.hpp"
 
 namespace btfgmm::detail {
 
@@ -92,5 +93,9 @@ void put_directions(ByteWriter& w, const DirectionSet& s);
 DirectionSet get_directions(ByteReader& r, const char* what);
 void put_tile(ByteWriter& w, int width, int height, const Tile& origin, SampleFormat format);
 void get_tile(ByteReader& r, int& width, int& height, Tile& origin, SampleFormat& format);
+// The model file's provenance section (docs/FORMAT.md, "Provenance"; provenance.cpp): the
+// reader takes all of `r`'s bytes, and refuses a field out of range or bytes left over.
+void put_provenance(ByteWriter& w, const Provenance& p);
+Provenance get_provenance(ByteReader& r);
 
 }  // namespace btfgmm::detail

@@ -10,13 +10,16 @@
 
 #include "btfgmm/core/error.hpp"
 #include "btfgmm/io/files.hpp"
+#include "btfgmm/model/provenance.hpp"
 #include "model/byte_io.hpp"
 
 namespace btfgmm {
 namespace {
 
 constexpr std::uint8_t kMagic[8] = {0x89, 'B', 'T', 'F', 'C', 'K', 'P', '\n'};
-constexpr std::uint32_t kVersion = 1;
+// 2: the runs so far, and each iteration's time and components alive (the model's
+// provenance); 1 had neither.
+constexpr std::uint32_t kVersion = 2;
 constexpr const char* kWhat = "checkpoint";
 constexpr const char* kFix = "start the fit again without --resume";
 
@@ -30,14 +33,20 @@ void fnv(std::uint64_t& h, const void* data, std::size_t n) {
 
 }  // namespace
 
-std::uint64_t btf_fingerprint(const Btf& btf) {
+std::uint64_t data_fingerprint(const DirectionSet& lights, const DirectionSet& views, int width,
+                               int height, std::uint64_t content_hash) {
   std::uint64_t h = 0xcbf29ce484222325ull;
-  const int size[2] = {btf.width(), btf.height()};
+  const int size[2] = {width, height};
   fnv(h, size, sizeof size);
-  for (const auto* set : {&btf.lights(), &btf.views()})
+  for (const auto* set : {&lights, &views})
     for (const Direction& d : *set) fnv(h, &d, sizeof d);
-  fnv(h, btf.data().data(), btf.data().size_bytes());
+  fnv(h, &content_hash, sizeof content_hash);
   return h;
+}
+
+std::uint64_t btf_fingerprint(const Btf& btf) {
+  return data_fingerprint(btf.lights(), btf.views(), btf.width(), btf.height(),
+                          tile_content_hash(btf));
 }
 
 void save_checkpoint(const FitCheckpoint& c, const std::filesystem::path& path) {
@@ -56,12 +65,17 @@ void save_checkpoint(const FitCheckpoint& c, const std::filesystem::path& path) 
   w.put<double>(c.epsilon);
   w.put<std::uint32_t>(std::uint32_t(c.precision));
   w.put<std::uint64_t>(c.data_fingerprint);
+  w.put<std::uint32_t>(c.runs);
   const EmResult& r = c.state.result;
   w.put<std::int32_t>(r.iterations);
   w.put<std::uint64_t>(r.dropped);
   w.put<std::uint8_t>(r.converged ? 1 : 0);
   w.put<std::uint32_t>(std::uint32_t(r.log_likelihood.size()));
-  for (double l : r.log_likelihood) w.put<double>(l);
+  for (std::size_t i = 0; i < r.log_likelihood.size(); ++i) {
+    w.put<double>(r.log_likelihood[i]);
+    w.put<double>(i < r.seconds.size() ? r.seconds[i] : 0.0);
+    w.put<std::uint32_t>(i < r.components.size() ? r.components[i] : 0);
+  }
   const ProductMixture& m = c.state.mixture;
   w.put<std::uint32_t>(std::uint32_t(m.size()));
   for (std::size_t k = 0; k < m.size(); ++k) {
@@ -91,7 +105,10 @@ FitCheckpoint load_checkpoint(const std::filesystem::path& path) {
   const std::span<const std::uint8_t> all(bytes);
   detail::ByteReader r(all.subspan(8, bytes.size() - 12), kWhat, name, kFix);
   if (const auto v = r.get<std::uint32_t>("version"); v != kVersion)
-    r.fail(fmt::format("version {} (this btfgmm reads version {})", v, kVersion));
+    throw Error(Error::Kind::kFormat,
+                fmt::format("checkpoint '{}' has version {}, written by {} btfgmm (this btfgmm "
+                            "reads version {}); resume it with that btfgmm, or {}",
+                            name, v, v < kVersion ? "an older" : "a newer", kVersion, kFix));
   FitCheckpoint c;
   c.input = r.text("input");
   c.output = r.text("output");
@@ -107,15 +124,19 @@ FitCheckpoint load_checkpoint(const std::filesystem::path& path) {
   if (precision > 1) r.fail("unknown precision");
   c.precision = Precision(precision);
   c.data_fingerprint = r.get<std::uint64_t>("data fingerprint");
+  c.runs = r.get<std::uint32_t>("runs");
   EmResult& res = c.state.result;
   res.iterations = r.get<std::int32_t>("iterations");
   res.dropped = r.get<std::uint64_t>("dropped");
   res.converged = r.get<std::uint8_t>("converged") != 0;
   const auto n = r.get<std::uint32_t>("history");
-  if (std::size_t(n) * 8 > r.remaining() || int(n) != res.iterations)
+  if (std::size_t(n) * 20 > r.remaining() || int(n) != res.iterations)
     r.fail("the log-likelihood history does not match the iteration count");
-  res.log_likelihood.resize(n);
-  for (double& l : res.log_likelihood) l = r.get<double>("log-likelihood");
+  for (std::uint32_t i = 0; i < n; ++i) {
+    res.log_likelihood.push_back(r.get<double>("log-likelihood"));
+    res.seconds.push_back(r.get<double>("seconds"));
+    res.components.push_back(r.get<std::uint32_t>("components alive"));
+  }
   const auto m = r.get<std::uint32_t>("components");
   if (m == 0 || std::size_t(m) * 19 * 8 != r.remaining())
     r.fail(fmt::format("{} components do not fit the {} bytes left", m, r.remaining()));

@@ -19,6 +19,7 @@
 
 #include <algorithm>
 #include <array>
+#include <chrono>
 #include <cmath>
 #include <cstdint>
 #include <exception>
@@ -361,7 +362,10 @@ EmResult fit_em(const SampleSet& s, ProductMixture& mix, const EmConfig& config,
                 const EmCallback& progress, const EmResult* resume,
                 const EmStateCallback& after_iteration) {
   detail::check_em_input(s.size(), mix, config);
-  const auto t0 = Clock::now();
+  // A resumed fit's clock goes on from the time of the state it resumes.
+  const double before = resume && !resume->seconds.empty() ? resume->seconds.back() : 0.0;
+  const auto t0 = Clock::now() - std::chrono::duration_cast<Clock::duration>(
+                                     std::chrono::duration<double>(before));
   const int threads = resolve_threads(config.threads);
   const std::vector<std::uint8_t> order = view_order(s);
   EmResult result;

@@ -3,13 +3,18 @@
 #include "btfgmm/model/fit.hpp"
 
 #include <fmt/format.h>
+#include <omp.h>
 
 #include <algorithm>
+#include <memory>
 #include <string>
 #include <system_error>
+#include <utility>
+#include <vector>
 
 #include "btfgmm/core/error.hpp"
 #include "btfgmm/core/text.hpp"
+#include "btfgmm/io/files.hpp"
 #include "btfgmm/model/em.hpp"
 #include "btfgmm/model/model_file.hpp"
 #include "btfgmm/model/samples.hpp"
@@ -40,14 +45,33 @@ BtfModel model_of(const Btf& btf, const SampleSet& samples, const FitConfig& con
   m.settings.iterations = std::uint32_t(em.iterations);
   m.settings.dropped = std::uint32_t(em.dropped);
   m.settings.log_likelihood = em.final_log_likelihood;
+  for (std::size_t i = 0; i < em.log_likelihood.size(); ++i)
+    m.provenance.fit.iterations.push_back(
+        {em.log_likelihood[i], i < em.seconds.size() ? em.seconds[i] : 0.0,
+         i < em.components.size() ? em.components[i] : std::uint32_t(0)});
   return m;
 }
 
 // ---- The fit job -------------------------------------------------------------------------
 
-Btf load_tile(const FitRequest& r) {
-  if (r.source) return r.source->load(r.tile);
-  return BtfSource::open(r.input).load(r.tile);
+// The request's tile, and where it was read from.
+Btf load_tile(const FitRequest& r, DataSource& source) {
+  std::shared_ptr<const BtfSource> src = r.source;
+  if (!src) src = std::make_shared<const BtfSource>(BtfSource::open(r.input));
+  source = {r.input, src->info().width, src->info().height};
+  return src->load(r.tile);
+}
+
+// The settings of a mixture's fit as its provenance records them.
+std::vector<std::pair<std::string, std::string>> settings_record(const FitRequest& r) {
+  const int threads = r.config.em.threads > 0 ? r.config.em.threads : omp_get_max_threads();
+  return {{"method", "gm"},
+          {"components", fmt::to_string(r.config.components)},
+          {"iterations", fmt::to_string(r.config.em.max_iterations)},
+          {"epsilon", fmt::format("{:g}", r.config.em.epsilon)},
+          {"seed", fmt::to_string(r.config.seed)},
+          {"precision", r.precision == Precision::kF16 ? "f16" : "f32"},
+          {"threads", fmt::to_string(threads)}};
 }
 
 // What a checkpoint of this request holds besides the state: the fit's inputs and settings,
@@ -70,14 +94,23 @@ std::string tile_text(const Tile& t) {
   return fmt::format("{},{},{},{}", t.x, t.y, t.width, t.height);
 }
 
-// A resume continues the checkpoint's fit: the same data, the same tile and settings.
+// A resume continues the checkpoint's (or the model's) fit: the same data, the same tile and
+// settings, at least the iterations already run.
 void check_resume(const FitResume& resume, const FitCheckpoint& now) {
   const FitCheckpoint& was = resume.checkpoint;
+  const char* what = resume.finished_model ? "model" : "checkpoint";
   if (was.data_fingerprint != now.data_fingerprint)
     throw Error(Error::Kind::kArgument,
-                fmt::format("the data in '{}' is not what checkpoint '{}' was fitted to (it "
-                            "changed since); resume with the original data or fit again",
-                            now.input, resume.path));
+                fmt::format("the data in '{}' is not what {} '{}' was fitted to ('{}'; the "
+                            "tile's content, size or directions differ); go on with the "
+                            "original data or fit again",
+                            now.input, what, resume.path, was.input));
+  const int done = was.state.result.iterations;
+  if (now.max_iterations < done)
+    throw Error(Error::Kind::kArgument,
+                fmt::format("--iterations {}: {} '{}' has already run {} iterations; give at "
+                            "least {} (the total, not the iterations to add)",
+                            now.max_iterations, what, resume.path, done, done));
   struct Setting {
     const char* name;
     std::string was, now;
@@ -86,15 +119,13 @@ void check_resume(const FitResume& resume, const FitCheckpoint& now) {
       {"tile", tile_text(was.tile), tile_text(now.tile)},
       {"components", fmt::to_string(was.components), fmt::to_string(now.components)},
       {"seed", fmt::to_string(was.seed), fmt::to_string(now.seed)},
-      {"max iterations", fmt::to_string(was.max_iterations), fmt::to_string(now.max_iterations)},
-      {"epsilon", fmt::to_string(was.epsilon), fmt::to_string(now.epsilon)},
       {"precision", fmt::to_string(int(was.precision)), fmt::to_string(int(now.precision))}};
   for (const Setting& s : settings)
     if (s.was != s.now)
       throw Error(Error::Kind::kArgument,
-                  fmt::format("checkpoint '{}' was fitted with {} {}, not {}; resume with the "
-                              "checkpoint's settings or fit again",
-                              resume.path, s.name, s.was, s.now));
+                  fmt::format("{} '{}' was fitted with {} {}, not {}; go on with its settings "
+                              "or fit again",
+                              what, resume.path, s.name, s.was, s.now));
 }
 
 // Saves the state to request.checkpoint every checkpoint_every iterations (none without one).
@@ -117,6 +148,17 @@ FitOutcome save_interrupted(const FitRequest& r, FitCheckpoint k, FitState state
   k.state = std::move(state);
   save_checkpoint(k, out.checkpoint);
   return out;
+}
+
+// The whole fit's provenance: the data, the settings, every run's time and iterations.
+void record_provenance(const FitRequest& r, const FitCheckpoint& job, DataFingerprint data,
+                       BtfModel& model) {
+  Provenance& p = model.provenance;
+  p.recorded = true;
+  p.data = std::move(data);
+  p.fit.settings = settings_record(r);
+  p.fit.runs = job.runs;
+  p.fit.seconds = model.settings.seconds + (r.resume ? r.resume->seconds_before : 0.0);
 }
 
 // Finished: the model file, then the checkpoint goes (the model holds the fit's result).
@@ -163,20 +205,78 @@ FitRequest resume_request(const fs::path& path) {
   r.precision = k.precision;
   r.output = k.output;
   r.checkpoint = path.string();
-  r.resume = FitResume{path.string(), std::move(k)};
+  const double before = k.state.result.seconds.empty() ? 0.0 : k.state.result.seconds.back();
+  r.resume = FitResume{path.string(), std::move(k), false, before};
+  return r;
+}
+
+FitRequest continue_request(const fs::path& path, const std::string& input, int iterations,
+                            const std::string& output) {
+  const std::string name = path.string();
+  const std::vector<std::uint8_t> bytes = read_whole_file(path, "model file");
+  const ModelFileContents c = open_model_file(bytes, name);
+  if (c.method != kMixtureMethod)
+    throw Error(Error::Kind::kArgument,
+                fmt::format("'{}' holds a '{}' model; only a Gaussian mixture's EM goes on "
+                            "(--continue): fit that method again with the settings you want",
+                            name, c.method));
+  BtfModel m = read_mixture_payload(c.payload, c.flags, name);
+  const Provenance& p = c.provenance;
+  if (!p.recorded || p.fit.iterations.size() != m.settings.iterations)
+    throw Error(Error::Kind::kArgument,
+                fmt::format("'{}' records no provenance (written by an older btfgmm), so its "
+                            "fit cannot go on; fit again with --iterations {}",
+                            name, iterations));
+  FitRequest r;
+  r.input = input.empty() ? p.data.source.name : input;
+  if (r.input.empty())
+    throw Error(Error::Kind::kArgument,
+                fmt::format("'{}' does not name the data it was fitted to; give the data as the "
+                            "input",
+                            name));
+  r.tile = m.origin;
+  r.config.components = m.settings.components;
+  r.config.seed = m.settings.seed;
+  r.config.em.max_iterations = iterations;
+  r.config.em.epsilon = m.settings.epsilon;
+  r.precision = m.precision;
+  r.output = output;
+  FitCheckpoint k = checkpoint_of(r, Btf(), 0);
+  k.input = p.data.source.name;
+  k.tile = m.origin;
+  k.data_fingerprint = data_fingerprint(m.lights, m.views, m.width, m.height, p.data.content_hash);
+  k.runs = p.fit.runs;
+  EmResult& e = k.state.result;
+  e.iterations = int(m.settings.iterations);
+  e.dropped = m.settings.dropped;
+  for (const IterationRecord& it : p.fit.iterations) {
+    e.log_likelihood.push_back(it.log_likelihood);
+    e.seconds.push_back(it.seconds);
+    e.components.push_back(it.components);
+  }
+  k.state.mixture = std::move(m.mixture);
+  r.resume = FitResume{name, std::move(k), true, p.fit.seconds};
   return r;
 }
 
 FitOutcome run_fit(const FitRequest& request, const FitObserver& observer) {
-  const Btf btf = load_tile(request);
-  const FitCheckpoint job = checkpoint_of(request, btf, btf_fingerprint(btf));
-  if (request.resume) check_resume(*request.resume, job);
+  DataSource source;
+  const Btf btf = load_tile(request, source);
+  const DataFingerprint data = fingerprint_of(btf, std::move(source));
+  FitCheckpoint job = checkpoint_of(
+      request, btf,
+      data_fingerprint(btf.lights(), btf.views(), btf.width(), btf.height(), data.content_hash));
+  if (request.resume) {
+    check_resume(*request.resume, job);
+    job.runs = request.resume->checkpoint.runs + 1;
+  }
   if (observer.started) observer.started(btf);
   FitState state;
   BtfModel model = fit_model(btf, request.config, observer.iteration,
                              request.resume ? &request.resume->checkpoint.state : nullptr,
                              periodic_checkpoints(request, job), &state);
   if (state.result.interrupted) return save_interrupted(request, job, std::move(state));
+  record_provenance(request, job, data, model);
   return save_finished(request, std::move(model));
 }
 

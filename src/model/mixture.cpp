@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include "btfgmm/core/error.hpp"
 #include "model/mixture_internal.hpp"
@@ -72,6 +73,7 @@ void record_iteration(EmResult& result, double ll, int iteration, const EmConfig
   p.iteration = iteration;
   p.max_iterations = config.max_iterations;
   p.log_likelihood = ll;
+  p.relative_gain = std::numeric_limits<double>::quiet_NaN();
   if (!result.log_likelihood.empty()) {
     const double prev = result.log_likelihood.back();
     p.relative_gain = (ll - prev) / std::max(std::abs(prev), 1e-300);
@@ -82,6 +84,8 @@ void record_iteration(EmResult& result, double ll, int iteration, const EmConfig
   p.components = components;
   p.dropped = result.dropped;
   p.seconds = seconds_since(start);
+  result.seconds.push_back(p.seconds);
+  result.components.push_back(std::uint32_t(components));
   if (progress) progress(p);
 }
 

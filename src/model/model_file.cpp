@@ -2,11 +2,14 @@
 #include <fmt/format.h>
 #include <zlib.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <optional>
 
 #include "btfgmm/core/error.hpp"
 #include "btfgmm/core/limits.hpp"
+#include "btfgmm/io/file_kind.hpp"
 #include "btfgmm/io/files.hpp"
 #include "btfgmm/model/model.hpp"
 #include "btfgmm/model/model_file.hpp"
@@ -100,23 +103,33 @@ struct Header {
   std::uint64_t payload = 0;
 };
 
-// Throws Error(kFormat) for an empty file or one that does not start with the magic bytes
-// (naming what it is where it is a known image).
+// Throws Error(kFormat) for an empty file or one that does not start with the magic bytes,
+// saying what it is instead (io/file_kind.hpp) and what to do with it.
 void check_magic(std::span<const std::uint8_t> bytes, const std::string& name) {
   if (bytes.empty())
     throw Error(Error::Kind::kFormat,
                 fmt::format("model file '{}' is empty (0 bytes); fit the model again", name));
-  if (bytes.size() < 8 || std::memcmp(bytes.data(), kMagic, 8) != 0) {
-    std::string what = "it does not start with the btfgmm magic bytes";
-    if (bytes.size() >= 4 && bytes[0] == 0x89 && bytes[1] == 'P' && bytes[2] == 'N')
-      what = "it is a PNG image";
-    else if (bytes.size() >= 3 && bytes[0] == 0xFF && bytes[1] == 0xD8)
-      what = "it is a JPEG image";
+  if (bytes.size() >= 8 && std::memcmp(bytes.data(), kMagic, 8) == 0) return;
+  const std::optional<FileKind> kind =
+      identify_file(bytes.first(std::min<std::size_t>(bytes.size(), 512)));
+  if (!kind)
     throw Error(Error::Kind::kFormat,
-                fmt::format("'{}' is not a btfgmm model file: {}; give a .btfgmm file written "
-                            "by 'btfgmm fit'",
-                            name, what));
-  }
+                fmt::format("'{}' is not a btfgmm model file: it does not start with the btfgmm "
+                            "magic bytes; give a .btfgmm file written by 'btfgmm fit'",
+                            name));
+  using C = FileKind::Class;
+  const std::string fix =
+      kind->kind == C::kArchive ? "extract it and fit the BTF images it holds: btfgmm fit FOLDER "
+                                  "-o model.btfgmm"
+      : kind->kind == C::kZip   ? fmt::format(
+                                      "if it holds a BTF (a Bonn zip, read in place), fit "
+                                        "it: btfgmm fit {} -o model.btfgmm",
+                                      name)
+      : kind->kind == C::kImage ? "a model is fitted to a folder of BTF images: btfgmm fit "
+                                  "FOLDER -o model.btfgmm"
+                                : "give a .btfgmm file written by 'btfgmm fit'";
+  throw Error(Error::Kind::kFormat,
+              fmt::format("'{}' is {}, not a btfgmm model; {}", name, kind->what, fix));
 }
 
 // The header, checked against the file: a version this btfgmm reads, the payload size, the
@@ -233,9 +246,14 @@ std::vector<std::uint8_t> mixture_payload(const BtfModel& m) {
 }
 
 std::vector<std::uint8_t> model_file_bytes(std::string_view method, std::uint32_t flags,
+                                           const Provenance& provenance,
                                            std::span<const std::uint8_t> payload) {
   Writer body;
   body.text(std::string(method));
+  Writer section;
+  if (provenance.recorded) detail::put_provenance(section, provenance);
+  body.put<std::uint32_t>(std::uint32_t(section.bytes.size()));
+  body.bytes.insert(body.bytes.end(), section.bytes.begin(), section.bytes.end());
   body.bytes.insert(body.bytes.end(), payload.begin(), payload.end());
   std::vector<std::uint8_t> out(kMagic, kMagic + 8);
   Writer h;
@@ -286,12 +304,24 @@ ModelFileContents open_model_file(std::span<const std::uint8_t> bytes, const std
   for (char ch : c.method)
     if (!((ch >= 'a' && ch <= 'z') || (ch >= '0' && ch <= '9') || ch == '-'))
       r.fail("the method name holds a character other than a-z, 0-9 and '-'");
+  if (header.version >= 3) {  // the provenance section, empty where none was recorded
+    const auto size = r.get<std::uint32_t>("provenance size");
+    if (size > r.remaining())
+      r.fail(fmt::format("a provenance of {} bytes, more than the file holds", size));
+    if (size > 0) {
+      Reader pr(c.payload.subspan(r.pos(), size), "model file", name, "fit the model again");
+      c.provenance = detail::get_provenance(pr);
+    }
+    c.payload = c.payload.subspan(r.pos() + size);
+    return c;
+  }
   c.payload = c.payload.subspan(r.pos());
   return c;
 }
 
 std::vector<std::uint8_t> serialize_model(const BtfModel& m) {
-  return model_file_bytes(kMixtureMethod, std::uint32_t(m.precision), mixture_payload(m));
+  return model_file_bytes(kMixtureMethod, std::uint32_t(m.precision), m.provenance,
+                          mixture_payload(m));
 }
 
 BtfModel deserialize_model(std::span<const std::uint8_t> bytes, const std::string& name) {
@@ -301,7 +331,9 @@ BtfModel deserialize_model(std::span<const std::uint8_t> bytes, const std::strin
                 fmt::format("model file '{}' holds a '{}' model, not a Gaussian mixture; read it "
                             "with load_representation (methods/registry.hpp)",
                             name, c.method));
-  return read_mixture_payload(c.payload, c.flags, name);
+  BtfModel m = read_mixture_payload(c.payload, c.flags, name);
+  m.provenance = c.provenance;
+  return m;
 }
 
 void save_model(const BtfModel& model, const std::filesystem::path& path) {

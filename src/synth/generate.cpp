@@ -60,24 +60,6 @@ namespace {
 
 namespace synth = detail::synth;
 
-// Throws Error(kArgument) for an unknown material, or an image size or a supersampling out of
-// range.
-void check_config(const GenerateConfig& config) {
-  const auto& known = synth::known_materials();
-  if (std::find(known.begin(), known.end(), config.material) == known.end())
-    throw Error(Error::Kind::kArgument, fmt::format("unknown material '{}'; known: {}",
-                                                    config.material, fmt::join(known, ", ")));
-  if (config.size < 4 || config.size > 8192)
-    throw Error(Error::Kind::kArgument,
-                fmt::format("generated image size {} is out of range; give a size from 4 to "
-                            "8192 pixels",
-                            config.size));
-  if (config.supersample < 1 || config.supersample > 8)
-    throw Error(Error::Kind::kArgument,
-                fmt::format("supersample {} is out of range; give 1 to 8 rays per pixel side",
-                            config.supersample));
-}
-
 // The unit vectors of a direction set.
 std::vector<Vec3> direction_vectors(const DirectionSet& dirs) {
   std::vector<Vec3> out(dirs.size());
@@ -139,8 +121,21 @@ void average_pixels(const synth::ViewRays& rays, std::size_t pixels, std::size_t
 
 }  // namespace
 
+void check_generate_config(const GenerateConfig& config) {
+  synth::check_material(config.material);
+  if (config.size < 4 || config.size > 8192)
+    throw Error(Error::Kind::kArgument,
+                fmt::format("generated image size {} is out of range; give a size from 4 to "
+                            "8192 pixels",
+                            config.size));
+  if (config.supersample < 1 || config.supersample > 8)
+    throw Error(Error::Kind::kArgument,
+                fmt::format("supersample {} is out of range; give 1 to 8 rays per pixel side",
+                            config.supersample));
+}
+
 Btf generate(const GenerateConfig& config) {
-  check_config(config);
+  check_generate_config(config);
   const int size = config.size;
   Btf btf(config.lights, config.views, size, size,
           config.hdr ? SampleFormat::kHdr : SampleFormat::kLdr8);
@@ -166,9 +161,11 @@ Btf generate(const GenerateConfig& config) {
   const int band_rows = std::clamp(int(65536 / (std::size_t(size) * rays_per_pixel)), 1, size);
   const int bands = (size + band_rows - 1) / band_rows;
   const std::size_t nl = lvec.size(), nv = vvec.size();
+  const std::size_t tasks = nv * std::size_t(bands);
+  std::size_t done = 0;
 
 #pragma omp parallel for schedule(dynamic, 1)
-  for (std::ptrdiff_t task = 0; task < std::ptrdiff_t(nv) * bands; ++task) {
+  for (std::ptrdiff_t task = 0; task < std::ptrdiff_t(tasks); ++task) {
     const auto vi = std::size_t(task / bands);
     const int y0 = int(task % bands) * band_rows, y1 = std::min(size, y0 + band_rows);
     const Vec3 v = vvec[vi];
@@ -181,6 +178,10 @@ Btf generate(const GenerateConfig& config) {
       synth::shade_rays(refl, lvec[li], v, shadows[li].data(), pixels * rays_per_pixel, rays);
       average_pixels(rays, pixels, rays_per_pixel, config.hdr, encode,
                      btf.image(li, vi) + std::size_t(y0) * std::size_t(size) * 3);
+    }
+    if (config.progress) {
+#pragma omp critical(btfgmm_generate_progress)
+      config.progress(double(++done) / double(tasks), "images");
     }
   }
   return btf;

@@ -2,7 +2,10 @@
 // generate.cpp): for every material, a periodic height field in pixel units, a spatially
 // varying albedo and a specular weight, evaluated at any point (x, y) of the image, and the
 // material's GGX roughness and normal-incidence Fresnel reflectance f0.
+#include <fmt/format.h>
+
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
@@ -10,6 +13,8 @@
 #include <utility>
 #include <vector>
 
+#include "btfgmm/core/error.hpp"
+#include "btfgmm/core/text.hpp"
 #include "btfgmm/synth/generate.hpp"
 #include "synth/materials.hpp"
 #include "synth/noise.hpp"
@@ -323,24 +328,58 @@ MaterialModel leather(int size, std::uint64_t seed) {
   return m;
 }
 
+// The one table of the materials: name, description, procedural model.
+struct MaterialEntry {
+  MaterialInfo info;
+  MaterialModel (*make)(int size, std::uint64_t seed);
+};
+
+const std::array<MaterialEntry, 4>& table() {
+  static const std::array<MaterialEntry, 4> t{{
+      {{"corduroy", "parallel ridges (wales) between narrow grooves, red-brown pile"}, corduroy},
+      {{"knit", "V-shaped stitches of round yarn (stockinette), wool-coloured"}, knit},
+      {{"bumps", "scattered rounded bumps with grain, grey-beige stone"}, bumps},
+      {{"leather", "pebbled grain of raised cells between creases, dark brown, glossy"}, leather},
+  }};
+  return t;
+}
+
+// The material called `name`; Error(kArgument) naming the nearest one otherwise.
+const MaterialEntry& entry(const std::string& name) {
+  for (const MaterialEntry& e : table())
+    if (e.info.name == name) return e;
+  std::vector<std::string_view> names;
+  for (const MaterialEntry& e : table()) names.push_back(e.info.name);
+  throw Error(Error::Kind::kArgument,
+              fmt::format("unknown material '{}'{}; the materials are: {}", name,
+                          did_you_mean(name, names), fmt::join(names, ", ")));
+}
+
 }  // namespace
 
-const std::vector<std::string>& known_materials() {
-  static const std::vector<std::string> n{"corduroy", "knit", "bumps", "leather"};
-  return n;
+void check_material(const std::string& name) {
+  entry(name);
 }
 
 MaterialModel material_model(const std::string& name, int size, std::uint64_t seed) {
-  return name == "corduroy" ? corduroy(size, seed)
-         : name == "knit"   ? knit(size, seed)
-         : name == "bumps"  ? bumps(size, seed)
-                            : leather(size, seed);
+  return entry(name).make(size, seed);
 }
 
 }  // namespace detail::synth
 
+std::span<const MaterialInfo> materials() {
+  static const std::vector<MaterialInfo> infos = [] {
+    std::vector<MaterialInfo> v;
+    for (const auto& e : detail::synth::table()) v.push_back(e.info);
+    return v;
+  }();
+  return infos;
+}
+
 std::vector<std::string> material_names() {
-  return detail::synth::known_materials();
+  std::vector<std::string> names;
+  for (const MaterialInfo& m : materials()) names.emplace_back(m.name);
+  return names;
 }
 
 }  // namespace btfgmm

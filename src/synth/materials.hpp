@@ -28,10 +28,10 @@ struct MaterialModel {
   double height_range = 0.0;  // > 0: rescale the height field to this peak-to-peak range
 };
 
-// The names of the materials, in the order material_names() lists them.
-const std::vector<std::string>& known_materials();
+// Error(kArgument) unless `name` is one of btfgmm::materials(), naming the nearest.
+void check_material(const std::string& name);
 
-// The material called `name` (one of known_materials()) for a size x size image.
+// The material called `name` (checked as check_material) for a size x size image.
 MaterialModel material_model(const std::string& name, int size, std::uint64_t seed);
 
 }  // namespace btfgmm::detail::synth

@@ -1,6 +1,7 @@
 // libFuzzer target: the model-file reader of every method (docs/FORMAT.md) on arbitrary bytes. Every input
 // must either be read or be refused with btfgmm::Error; anything else (a crash, a sanitizer
-// report, another exception) is a bug. A model that is read must evaluate and round-trip.
+// report, another exception) is a bug. A model that is read must evaluate and round-trip,
+// its provenance (the section of format 3) unchanged.
 //
 // Each input is read twice: as given (the header, version and CRC checks), and with its
 // payload size and CRC-32 made right, so that mutations reach the fields behind the checksum.
@@ -15,8 +16,25 @@
 #include "btfgmm/core/error.hpp"
 #include "btfgmm/methods/registry.hpp"
 #include "btfgmm/methods/representation.hpp"
+#include "btfgmm/model/provenance.hpp"
 
 namespace {
+
+bool same_provenance(const btfgmm::Provenance& a, const btfgmm::Provenance& b) {
+  if (a.recorded != b.recorded || a.data.source.name != b.data.source.name ||
+      a.data.source.image_width != b.data.source.image_width ||
+      a.data.source.image_height != b.data.source.image_height ||
+      a.data.content_hash != b.data.content_hash || a.fit.settings != b.fit.settings ||
+      a.fit.seconds != b.fit.seconds || a.fit.runs != b.fit.runs ||
+      a.fit.iterations.size() != b.fit.iterations.size())
+    return false;
+  for (std::size_t i = 0; i < a.fit.iterations.size(); ++i)
+    if (a.fit.iterations[i].log_likelihood != b.fit.iterations[i].log_likelihood ||
+        a.fit.iterations[i].seconds != b.fit.iterations[i].seconds ||
+        a.fit.iterations[i].components != b.fit.iterations[i].components)
+      return false;
+  return true;
+}
 
 // Any method's model (methods/registry.hpp): read, evaluated at a measured pair and between
 // pairs, decoded small, and written back to bytes that read again.
@@ -42,7 +60,8 @@ void read_and_use(std::span<const std::uint8_t> bytes) {
     (void)m->decode(btfgmm::DirectionSet({f.lights[0]}), btfgmm::DirectionSet({f.views[0]}), 2, 3,
                     1e-3);
   const std::vector<std::uint8_t> again = btfgmm::representation_file_bytes(*m);
-  (void)btfgmm::read_representation(again, "fuzz-again.btfgmm");
+  const auto back = btfgmm::read_representation(again, "fuzz-again.btfgmm");
+  if (!same_provenance(m->provenance(), back->provenance())) __builtin_trap();
 }
 
 }  // namespace

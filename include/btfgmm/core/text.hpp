@@ -3,7 +3,9 @@
 #pragma once
 
 #include <chrono>
+#include <span>
 #include <string>
+#include <string_view>
 
 namespace btfgmm {
 
@@ -13,6 +15,14 @@ std::string human_bytes(double bytes);
 std::string human_seconds(double seconds);
 // ASCII lower case (file extensions, names given on the command line).
 std::string lower(std::string text);
+
+// The Levenshtein distance between two names: insertions, deletions and substitutions.
+std::size_t edit_distance(std::string_view a, std::string_view b);
+// The name among `names` nearest to `given` when a mistyping is likely (at most two edits, and
+// at most half of the name's letters), or empty. Ties go to the first name listed.
+std::string nearest_name(std::string_view given, std::span<const std::string_view> names);
+// " (did you mean 'NAME'?)" for the nearest name, or empty: the suffix of an error message.
+std::string did_you_mean(std::string_view given, std::span<const std::string_view> names);
 
 // Wall-clock time for progress and timings.
 using Clock = std::chrono::steady_clock;

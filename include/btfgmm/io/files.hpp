@@ -25,4 +25,9 @@ std::vector<std::uint8_t> read_whole_file(
     const char* too_large_fix = "it is not a file btfgmm wrote; give the right file",
     Error::Kind too_large_kind = Error::Kind::kFormat);
 
+// The first `max_bytes` of a regular file (fewer when it is shorter), to tell what it holds
+// (io/file_kind.hpp) before reading it whole; empty when it cannot be read (the reader that
+// follows names the reason).
+std::vector<std::uint8_t> read_file_start(const std::filesystem::path& path, std::size_t max_bytes);
+
 }  // namespace btfgmm

@@ -46,13 +46,27 @@ ImageHeader decode_image_header(std::span<const std::uint8_t> bytes, const std::
 Image read_image(const std::filesystem::path& path, const Tile& rows = {});
 ImageHeader read_image_header(const std::filesystem::path& path);
 
-// Write an image. PNG: 8-bit, values rounded and clamped to 0..255. EXR: 32-bit float RGB,
-// exact. The file is written under a temporary name and renamed, so a failed write never
-// leaves a broken file under `path`.
+// Write an image. PNG and JPEG: 8-bit, values rounded and clamped to 0..255 (JPEG at quality
+// 95). EXR: 32-bit float RGB, exact. The file is written under a temporary name and renamed,
+// so a failed write never leaves a broken file under `path`.
 void write_png(const std::filesystem::path& path, int width, int height,
                std::span<const float> rgb);
+void write_jpeg(const std::filesystem::path& path, int width, int height,
+                std::span<const float> rgb);
 void write_exr(const std::filesystem::path& path, int width, int height,
                std::span<const float> rgb);
+
+// The format an output file's extension names (.png, .jpg or .jpeg, .exr, any case); throws
+// Error(kArgument) naming the file and the extensions written otherwise. Check an output name
+// with it before any work.
+ImageFormat output_image_format(const std::filesystem::path& path);
+// An image in the format its name's extension names, its values as they are (levels for
+// PNG and JPEG, the floats themselves for EXR); Error(kArgument) as output_image_format.
 void write_image(const std::filesystem::path& path, const Image& image);
+// A picture of display levels (sRGB, 0-255, as btfgmm's renderings are) in the format its
+// name's extension names: PNG or JPEG levels, or OpenEXR linear values (the levels decoded
+// from sRGB, so that a viewer shows the same picture).
+void write_picture(const std::filesystem::path& path, int width, int height,
+                   std::span<const float> levels);
 
 }  // namespace btfgmm

@@ -5,12 +5,14 @@
 #include <cstdint>
 #include <memory>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "btfgmm/core/btf.hpp"
 #include "btfgmm/measure/metrics.hpp"
 #include "btfgmm/methods/representation.hpp"
 #include "btfgmm/model/model.hpp"
+#include "btfgmm/model/provenance.hpp"
 
 namespace btfgmm {
 
@@ -39,6 +41,27 @@ struct CompareOptions {
   std::size_t worst_pairs = 3;  // pictures of the worst images by PSNR
   SsimSettings ssim;
 };
+
+// How a tile of data compares with the data a model was fitted to, by the model's provenance
+// (model/provenance.hpp).
+enum class DataMatch {
+  kSame,             // the tile's content hash is the one the model records
+  kNotRecorded,      // the model records no provenance (an older file): nothing to check
+  kOtherContent,     // the same direction sets, other values in the tile: a partial match
+  kOtherDirections,  // other direction sets, or another sample format
+};
+std::string_view to_string(DataMatch m);  // "same", "not recorded", "other content", ...
+
+struct DataCheck {
+  DataMatch match = DataMatch::kSame;
+  // Unless kSame: what differs, naming the data the model records (source, tile, content
+  // hash) and the data given (the same).
+  std::string message;
+};
+// `tile` is the model's tile (its origin and size) as read from `data`, the data given for
+// it; `model_name` names the model.
+DataCheck check_fitted_data(const Representation& model, const std::string& model_name,
+                            const Btf& tile, const DataSource& data);
 
 // Decodes `model` at its own direction sets and tile size, measures it against `original` (the
 // tile it was fitted to) and keeps the images of the pairs to picture: frontal light and view,

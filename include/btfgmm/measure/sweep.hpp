@@ -12,6 +12,7 @@
 #include <filesystem>
 #include <functional>
 #include <map>
+#include <optional>
 #include <span>
 #include <string>
 #include <string_view>
@@ -20,6 +21,7 @@
 #include "btfgmm/core/btf.hpp"
 #include "btfgmm/measure/compare.hpp"
 #include "btfgmm/methods/representation.hpp"
+#include "btfgmm/model/provenance.hpp"
 
 namespace btfgmm {
 
@@ -44,11 +46,13 @@ struct SweepProgress {
 };
 
 struct SweepRequest {
+  DataSource source;                 // where the tile was read from (the models' provenance)
   std::vector<std::string> methods;  // by name, in the order to fit; empty: every method
   // Settings fitted instead of a method's ladder, by method name (each a method swept).
   std::map<std::string, std::vector<MethodSettings>, std::less<>> ladders;
-  // Set on every setting (a ladder's own values are replaced).
-  FactorEncoding encoding = FactorEncoding::kF16;
+  // Set on every setting (a ladder's own values are replaced); unset: each method's
+  // smallest storage (MethodInfo::smallest_encoding: q8, the mixture f16).
+  std::optional<FactorEncoding> encoding;
   int threads = 0;  // 0: OpenMP's default
   std::uint64_t seed = 1;
   int iterations = 0;  // not 0: set on every setting (gm: EM; lpca: rounds; plm-rf: LM steps)

@@ -17,11 +17,16 @@
 // So 0 is a tile that repeats exactly like the texture continues (a whole number of
 // periods of a periodic texture); a tile cut at a random place scores well above 1 on most
 // textures. The search tries every position of every size in the requested ranges and
-// returns the lowest (ties: the larger tile, then the top-left one).
+// returns the tile of the lowest score, its seam error times its aspect ratio (longer side /
+// shorter side; ties: the larger tile, then the top-left one): a tile twice as long as it is
+// wide must have half the seam error of a square one. A narrow strip is a poor sample of the
+// material however well it repeats, and with ranges of sizes the seam error alone tends to
+// pick one (it is judged on fewer pixels, so chance matches weigh more).
 #pragma once
 
 #include <cstddef>
 #include <string>
+#include <vector>
 
 #include "btfgmm/core/btf.hpp"
 #include "btfgmm/io/dataset.hpp"
@@ -34,6 +39,8 @@ struct TileSearchConfig {
   // The (light, view) images the seams are judged on, spread evenly over all pairs in the
   // light-major order; 0: all of them.
   std::size_t images = 64;
+  // How many of the best sizes TileSearchResult::ranked lists (at least 1).
+  std::size_t top = 1;
 };
 
 struct SeamError {
@@ -43,12 +50,25 @@ struct SeamError {
   double rms_levels = 0.0;  // root mean squared mismatch over both seams, in levels
 };
 
-struct TileSearchResult {
+// A tile and how it ranks.
+struct TileCandidate {
   Tile tile;
   SeamError seam;
+  double score = 0.0;  // tile_score(): what the search minimises
+};
+
+struct TileSearchResult {
+  Tile tile;  // the best: ranked[0]
+  SeamError seam;
+  double score = 0.0;
   std::size_t candidates = 0;  // tiles compared
   std::size_t images = 0;      // images the seams were judged on
+  // The best position of each of the `config.top` best sizes, best first.
+  std::vector<TileCandidate> ranked;
 };
+
+// What the search minimises: the seam error times the aspect ratio, longer side / shorter side.
+double tile_score(const SeamError& seam, int width, int height);
 
 // Throws Error(kArgument) when a size range is empty or a tile size is not smaller than the
 // image (a seam needs a column or row outside the tile to be judged).

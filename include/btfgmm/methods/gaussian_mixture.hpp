@@ -11,6 +11,7 @@ namespace btfgmm {
 
 class GaussianMixture final : public Representation {
  public:
+  // The model's provenance moves to provenance(); model().provenance is left empty.
   explicit GaussianMixture(BtfModel model);
 
   const BtfModel& model() const { return model_; }

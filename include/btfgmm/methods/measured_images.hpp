@@ -31,10 +31,17 @@ class MeasuredImages : public Representation {
   // default calls measured_pixel for every pixel; methods override it with their fast form.
   virtual void measured_image(std::size_t light, std::size_t view, float* rgb) const;
 
-  // Any light, measured view: the measured lights' values blended with their interpolation
-  // weights. Methods analytic in the light override both.
-  virtual void light_pixel(const Direction& light, std::size_t view, int x, int y,
-                           float* rgb) const;
+  // One pixel of the image of a measured view: the view's index and the tile pixel.
+  struct ViewPixel {
+    std::size_t view = 0;
+    int x = 0, y = 0;
+  };
+  // Any light, measured views: the RGB of each sample (3 floats each), the measured lights'
+  // values blended with their interpolation weights. What depends on the light alone (its
+  // weights, a method's basis) is computed once for all the samples, which predict gives
+  // grouped by view. Methods analytic in the light override both.
+  virtual void light_pixels(const Direction& light, std::span<const ViewPixel> samples,
+                            float* rgb) const;
   virtual void light_image(const Direction& light, std::size_t view, float* rgb) const;
 
   void predict(std::span<const Query> queries, std::span<float> rgb) const override;
@@ -49,6 +56,8 @@ class MeasuredImages : public Representation {
   const DirectionInterpolator& view_interpolator() const { return *views_; }
 
  private:
+  void predict_one(const Query& q, float* rgb) const;
+
   ModelFrame frame_;
   std::unique_ptr<DirectionInterpolator> lights_, views_;
 };

@@ -70,8 +70,8 @@ class PlmRf final : public MeasuredImages {
   void measured_pixel(std::size_t light, std::size_t view, int x, int y, float* rgb) const override;
   void measured_image(std::size_t light, std::size_t view, float* rgb) const override;
   // The lobe exact at any light, the polynomial blended over the measured lights.
-  void light_pixel(const Direction& light, std::size_t view, int x, int y,
-                   float* rgb) const override;
+  void light_pixels(const Direction& light, std::span<const ViewPixel> samples,
+                    float* rgb) const override;
   void light_image(const Direction& light, std::size_t view, float* rgb) const override;
 
   std::vector<std::uint8_t> payload() const override;

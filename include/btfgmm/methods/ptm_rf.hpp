@@ -47,8 +47,8 @@ class PtmRf final : public MeasuredImages {
   void measured_pixel(std::size_t light, std::size_t view, int x, int y, float* rgb) const override;
   void measured_image(std::size_t light, std::size_t view, float* rgb) const override;
   // Exact at any light: the polynomial evaluated there.
-  void light_pixel(const Direction& light, std::size_t view, int x, int y,
-                   float* rgb) const override;
+  void light_pixels(const Direction& light, std::span<const ViewPixel> samples,
+                    float* rgb) const override;
   void light_image(const Direction& light, std::size_t view, float* rgb) const override;
 
   std::vector<std::uint8_t> payload() const override;
@@ -56,6 +56,8 @@ class PtmRf final : public MeasuredImages {
 
  private:
   void image_at(const std::array<double, kCoefficients>& terms, std::size_t view, float* rgb) const;
+  void pixel_at(const std::array<double, kCoefficients>& terms, std::size_t view, int x, int y,
+                float* rgb) const;
 
   std::vector<float> coefficients_;
   FactorEncoding encoding_;

@@ -31,6 +31,11 @@ struct MethodInfo {
   // Settings that span compression ratios from about 1:5 to 1:500 on a tile of this frame
   // (as Table 2 counts them), smallest model first; `sweep` fits each.
   std::function<std::vector<MethodSettings>(const ModelFrame& frame)> ladder;
+  // The storage `fit` uses when none is asked (the mixture's f32 keeps it exact, so that a
+  // fit can go on from its file), and the smallest the method takes: what `sweep` compares,
+  // every file as small as its precision allows (docs/METHODS.md, "Storage").
+  FactorEncoding fit_encoding = FactorEncoding::kQ8;
+  FactorEncoding smallest_encoding = FactorEncoding::kQ8;
 };
 
 // Every method, the Gaussian mixture ("gm") first.
@@ -38,7 +43,17 @@ std::span<const MethodInfo> all_methods();
 // Throws Error(kArgument) for an unknown name, listing the methods (and the nearest name).
 const MethodInfo& find_method(std::string_view name);
 
-// Any method's model file: read (Error(kFormat) naming the file), written atomically.
+// Fits `method` to `tile` and records the model's provenance: `data`, the tile's fingerprint
+// (fingerprint_of, computed once for many fits of one tile), the settings as asked (and the
+// size they gave), the fit's time, and for the mixture its EM log. Throws as the method's fit.
+std::unique_ptr<Representation> fit_and_record(const MethodInfo& method, const Btf& tile,
+                                               const MethodSettings& settings,
+                                               const DataFingerprint& data);
+
+// Any method's model file: read (Error(kFormat) naming the file and, where it holds something
+// else, what: an archive, an image, ...), written atomically. Every command that reads a model
+// reads it by load_representation, which refuses a folder (Error(kArgument); a folder of
+// images: with the command that fits it).
 std::unique_ptr<Representation> read_representation(std::span<const std::uint8_t> bytes,
                                                     const std::string& name);
 std::unique_ptr<Representation> load_representation(const std::filesystem::path& path);

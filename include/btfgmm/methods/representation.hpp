@@ -17,6 +17,7 @@
 #include "btfgmm/core/btf.hpp"
 #include "btfgmm/core/directions.hpp"
 #include "btfgmm/model/predict.hpp"
+#include "btfgmm/model/provenance.hpp"
 
 namespace btfgmm {
 
@@ -95,6 +96,14 @@ class Representation {
   virtual std::uint32_t file_flags() const { return 0; }
   // Named facts for `info` and the report ("eigen-images", "16"), in display order.
   virtual std::vector<std::pair<std::string, std::string>> details() const { return {}; }
+
+  // The data it was fitted to and the fit's log, written to its model file and read back
+  // (none recorded for older files); fit_and_record (methods/registry.hpp) records it.
+  const Provenance& provenance() const { return provenance_; }
+  void set_provenance(Provenance p) { provenance_ = std::move(p); }
+
+ private:
+  Provenance provenance_;
 };
 
 }  // namespace btfgmm

@@ -31,13 +31,17 @@ struct FitCheckpoint {
   double epsilon = 0.0;
   Precision precision = Precision::kF32;
   std::uint64_t data_fingerprint = 0;  // btf_fingerprint of the tile
+  std::uint32_t runs = 1;              // runs of the fit so far, the one that wrote it included
   // Where the fit stands.
   FitState state;
 };
 
-// A 64-bit FNV-1a hash of a BTF's direction sets, size and values: a resumed fit checks that
-// it sees the same data.
+// A 64-bit FNV-1a hash of a BTF's size, direction sets and content hash (tile_content_hash,
+// model/provenance.hpp): a resumed fit checks that it sees the same data. data_fingerprint
+// is the same of the parts, for a model whose provenance records its tile's content hash.
 std::uint64_t btf_fingerprint(const Btf& btf);
+std::uint64_t data_fingerprint(const DirectionSet& lights, const DirectionSet& views, int width,
+                               int height, std::uint64_t content_hash);
 
 // Atomic (temporary file, fsync, rename). Throws Error(kIo).
 void save_checkpoint(const FitCheckpoint& checkpoint, const std::filesystem::path& path);

@@ -28,17 +28,23 @@ struct FitConfig {
 // Mean BRDF, samples, initialisation and EM on a BTF tile. With `resume`, EM continues from
 // that state instead of a fresh initialisation (the same tile and settings are the caller's
 // to check: run_fit does). `after_iteration` as for fit_em. If the fit was interrupted
-// (config.em.stop), *state receives where it stands and the returned model is empty.
+// (config.em.stop), *state receives where it stands and the returned model is empty. The
+// model's provenance holds the fit's log (its EM iterations, this run's time); the data's
+// fingerprint, the settings and `recorded` are the caller's to set (run_fit, fit_and_record).
 BtfModel fit_model(const Btf& btf, const FitConfig& config, const EmCallback& progress = {},
                    const FitState* resume = nullptr, const EmStateCallback& after_iteration = {},
                    FitState* state = nullptr);
 
 // ---- The fit job: from a BTF on disk to a model file, interruptible and resumable --------
 
-// An interrupted fit to continue: its checkpoint file and what that holds.
+// A fit to go on with: an interrupted one (its checkpoint file and what that holds), or a
+// finished mixture's (its model file, and a checkpoint made of it: continue_request).
 struct FitResume {
   std::string path;
   FitCheckpoint checkpoint;
+  bool finished_model = false;  // `path` is a model file, not a checkpoint
+  // The fit's time before this run: a checkpoint's EM time, a model's whole fit time.
+  double seconds_before = 0.0;
 };
 
 struct FitRequest {
@@ -55,8 +61,9 @@ struct FitRequest {
   // written.
   std::string checkpoint;
   int checkpoint_every = 1;
-  // Continue this interrupted fit (see resume_request); the tile and settings above must be
-  // the checkpoint's, and the data the same.
+  // Continue this fit (see resume_request, continue_request); the tile, M, seed and
+  // precision above must be the checkpoint's, the data the same, and the iterations at least
+  // those already run (more go on to that many; epsilon may change).
   std::optional<FitResume> resume;
 };
 
@@ -64,6 +71,15 @@ struct FitRequest {
 // and output, and its state; the state keeps being saved to `path`. Threads and the stop
 // flag are the caller's to set. Throws as load_checkpoint.
 FitRequest resume_request(const std::filesystem::path& path);
+
+// The request that continues the finished mixture in the model file `path` to `iterations`
+// EM iterations in all, from its stored parameters, on `input` (empty: the source its
+// provenance records), writing `output`. The stored parameters are the fit's rounded to the
+// file's precision, so the result equals one longer fit within that rounding, not bit for
+// bit (docs/FORMAT.md). Throws Error(kFormat) as load_model, Error(kArgument) for a model of
+// another method, one without provenance, or `iterations` not above those it has run.
+FitRequest continue_request(const std::filesystem::path& path, const std::string& input,
+                            int iterations, const std::string& output);
 
 // What run_fit tells as it goes (the library prints nothing).
 struct FitObserver {
@@ -78,15 +94,16 @@ struct FitOutcome {
   bool interrupted = false;
   int iterations = 0;
   std::string checkpoint;
-  // Otherwise the model written to the request's output, and that file's size in bytes.
+  // Otherwise the model written to the request's output (its provenance: the data's
+  // fingerprint and the whole fit's log), and that file's size in bytes.
   BtfModel model;
   std::uint64_t file_bytes = 0;
 };
 
 // Loads the request's tile, checks a resume against it (Error(kArgument) when the data or
-// the settings are not the checkpoint's), fits (fit_model) with checkpoints as requested,
-// and writes the model, or on an interruption the checkpoint. Throws Error as the loading,
-// the fit and the writing do.
+// the settings are not the checkpoint's or the model's), fits (fit_model) with checkpoints as
+// requested, and writes the model, or on an interruption the checkpoint. Throws Error as the
+// loading, the fit and the writing do.
 FitOutcome run_fit(const FitRequest& request, const FitObserver& observer = {});
 
 }  // namespace btfgmm

@@ -74,16 +74,18 @@ struct EmProgress {
   int iteration = 0;  // 1-based
   int max_iterations = 0;
   double log_likelihood = 0.0;
-  double relative_gain = 0.0;  // (L - L_prev) / |L_prev|; 0 for the first iteration
+  double relative_gain = 0.0;  // (L - L_prev) / |L_prev|; NaN for the first iteration (none)
   std::size_t components = 0;
   std::size_t dropped = 0;  // dropped so far
-  double seconds = 0.0;     // since the fit started
+  double seconds = 0.0;     // since the fit started (a resumed fit's earlier runs included)
 };
 using EmCallback = std::function<void(const EmProgress&)>;
 
 struct EmResult {
-  std::vector<double> log_likelihood;  // L per iteration (before its M-step)
-  double final_log_likelihood = 0.0;   // L of the returned parameters
+  std::vector<double> log_likelihood;     // L per iteration (before its M-step)
+  std::vector<double> seconds;            // per iteration: EmProgress::seconds at its end
+  std::vector<std::uint32_t> components;  // per iteration: alive after its M-step
+  double final_log_likelihood = 0.0;      // L of the returned parameters
   int iterations = 0;
   std::size_t dropped = 0;
   bool converged = false;    // stopped by epsilon

@@ -13,6 +13,7 @@
 #include "btfgmm/core/btf.hpp"
 #include "btfgmm/core/directions.hpp"
 #include "btfgmm/model/mixture.hpp"
+#include "btfgmm/model/provenance.hpp"
 #include "btfgmm/model/samples.hpp"
 
 namespace btfgmm {
@@ -27,7 +28,7 @@ struct FitSettings {
   std::uint32_t iterations = 0;  // run
   std::uint32_t dropped = 0;     // components dropped by EM
   double log_likelihood = 0.0;   // final mean log-likelihood (model units)
-  double seconds = 0.0;          // fit time (not stored in the model file: files are reproducible)
+  double seconds = 0.0;          // this run's fit time (the file's provenance has the whole)
 };
 
 // Everything evaluation needs.
@@ -41,6 +42,8 @@ struct BtfModel {
   ProductMixture mixture;        // model units
   FitSettings settings;
   Precision precision = Precision::kF32;
+  // Written to and read from the model file beside the payload (model/provenance.hpp).
+  Provenance provenance;
 
   // Compression ratio as the paper counts it: paper_compression_ratio() of this model's tile,
   // direction sets and M.

@@ -1,6 +1,7 @@
-// The model file (docs/FORMAT.md): versioned, checksummed, written atomically. Version 2
-// tags the payload with the method that wrote it (methods/registry.hpp reads any method);
-// version 1 files hold a Gaussian mixture and are read as such.
+// The model file (docs/FORMAT.md): versioned, checksummed, written atomically. Version 3
+// records the model's provenance (model/provenance.hpp) after the method tag; version 2 tags
+// the payload with the method that wrote it (methods/registry.hpp reads any method); version 1
+// files hold a Gaussian mixture and are read as such. Versions 1 and 2 have no provenance.
 #pragma once
 
 #include <cstdint>
@@ -11,25 +12,30 @@
 #include <vector>
 
 #include "btfgmm/model/model.hpp"
+#include "btfgmm/model/provenance.hpp"
 
 namespace btfgmm {
 
-constexpr std::uint32_t kModelFormatVersion = 2;
+constexpr std::uint32_t kModelFormatVersion = 3;
 // The Gaussian mixture's method tag.
 constexpr std::string_view kMixtureMethod = "gm";
 
-// A model file checked (magic, version, size, CRC-32, flags) and split into its method tag
-// and that method's payload (a view into the bytes given).
+// A model file checked (magic, version, size, CRC-32, flags) and split into its method tag,
+// its provenance (none recorded before version 3, or where the writer had none) and that
+// method's payload (a view into the bytes given).
 struct ModelFileContents {
   std::uint32_t version = 0, flags = 0;
   std::string method;
+  Provenance provenance;
   std::span<const std::uint8_t> payload;
 };
 // Throws Error(kFormat) naming `name` for an empty, truncated, corrupted or newer-version
-// file, or a malformed method tag.
+// file, a malformed method tag or a malformed provenance.
 ModelFileContents open_model_file(std::span<const std::uint8_t> bytes, const std::string& name);
-// The whole file: header, method tag, payload, CRC-32.
+// The whole file (the current version): header, method tag, provenance (an empty section
+// when not recorded), payload, CRC-32.
 std::vector<std::uint8_t> model_file_bytes(std::string_view method, std::uint32_t flags,
+                                           const Provenance& provenance,
                                            std::span<const std::uint8_t> payload);
 
 // The Gaussian mixture's payload (everything after the method tag).
@@ -39,7 +45,7 @@ BtfModel read_mixture_payload(std::span<const std::uint8_t> payload, std::uint32
 
 std::vector<std::uint8_t> serialize_model(const BtfModel& model);
 // Throws Error(kFormat) naming `name` for a truncated, corrupted or newer-version file, or a
-// file of another method.
+// file of another method. The model's provenance is the file's.
 BtfModel deserialize_model(std::span<const std::uint8_t> bytes, const std::string& name);
 
 // Atomic: written to a temporary file in the same folder, flushed, then renamed.

@@ -7,7 +7,10 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
+#include <span>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "btfgmm/core/btf.hpp"
@@ -22,12 +25,27 @@ struct GenerateConfig {
   DirectionSet views = DirectionSet::ubo81();
   bool hdr = false;     // float output (for EXR) instead of 8-bit levels
   int supersample = 2;  // rays per pixel side
+  // Called as the work advances, `fraction` from 0 to 1 (1 last), `stage` naming the step
+  // ("shadows", "images"); from one thread at a time, never concurrently. Must not throw.
+  std::function<void(double fraction, std::string_view stage)> progress;
 };
 
-// The materials generate() knows, e.g. "corduroy", "knit", "bumps".
+// A material generate() knows: its name and what it looks like.
+struct MaterialInfo {
+  std::string_view name;         // "corduroy"
+  std::string_view description;  // "parallel ridges (wales) with grooves, red-brown"
+};
+
+// Every material, in the order help texts list them. The one list of the materials.
+std::span<const MaterialInfo> materials();
+// Their names, in that order.
 std::vector<std::string> material_names();
 
-// Throws Error(kArgument) for an unknown material or a nonsense size.
+// Throws Error(kArgument) for an unknown material (naming the nearest), an image size or a
+// supersampling out of range: what generate() checks before any work.
+void check_generate_config(const GenerateConfig& config);
+
+// Throws as check_generate_config.
 Btf generate(const GenerateConfig& config);
 
 }  // namespace btfgmm

@@ -1,0 +1,67 @@
+// Usage help beyond CLI11's (usage.hpp).
+#include "usage.hpp"
+
+#include <fmt/format.h>
+
+#include <string_view>
+#include <vector>
+
+#include "btfgmm/core/text.hpp"
+
+namespace btfgmm::cli {
+
+void print_overview(const CLI::App& app) {
+  fmt::print("{}\n", app.help());
+}
+
+namespace {
+
+// The subcommand named `name`, or null.
+const CLI::App* find_command(const CLI::App& app, std::string_view name) {
+  for (const CLI::App* sub : app.get_subcommands([](const CLI::App*) { return true; }))
+    if (sub->get_name() == name) return sub;
+  return nullptr;
+}
+
+std::string unknown_command(const CLI::App& app, std::string_view given) {
+  std::vector<std::string> names;
+  for (const CLI::App* sub : app.get_subcommands([](const CLI::App*) { return true; }))
+    names.push_back(sub->get_name());
+  const std::vector<std::string_view> views(names.begin(), names.end());
+  return fmt::format("unknown command '{}'{}; the commands are: {} (btfgmm --help describes each)",
+                     given, did_you_mean(given, views), fmt::join(names, ", "));
+}
+
+// "--name" for every long name of the command's options.
+std::vector<std::string> long_options(const CLI::App& command) {
+  std::vector<std::string> names;
+  for (const CLI::Option* opt : command.get_options())
+    for (const std::string& n : opt->get_lnames()) names.push_back("--" + n);
+  return names;
+}
+
+}  // namespace
+
+std::string mistyped_name(const CLI::App& app, int argc, const char* const* argv) {
+  int at = 1;
+  while (at < argc && argv[at][0] == '-') ++at;  // the command's own flags (--help, --version)
+  if (at >= argc) return "";
+  const CLI::App* command = find_command(app, argv[at]);
+  if (!command) return unknown_command(app, argv[at]);
+  const std::vector<std::string> names = long_options(*command);
+  const std::vector<std::string_view> views(names.begin(), names.end());
+  for (int i = at + 1; i < argc; ++i) {
+    const std::string_view arg = argv[i];
+    if (arg == "--") break;
+    if (arg.size() < 3 || arg.substr(0, 2) != "--") continue;
+    const std::string_view name = arg.substr(0, arg.find('='));
+    bool known = false;
+    for (const std::string& n : names) known = known || n == name;
+    if (!known)
+      return fmt::format("{}: unknown option '{}'{}; 'btfgmm {} --help' lists its options",
+                         command->get_name(), name, did_you_mean(name, views), command->get_name());
+  }
+  return "";
+}
+
+}  // namespace btfgmm::cli

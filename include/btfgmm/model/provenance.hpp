@@ -1,0 +1,64 @@
+// A model's provenance (docs/FORMAT.md, "Provenance"): what identifies the data it was fitted
+// to, beside what its frame holds (the direction sets, the tile, the sample format), and the
+// fit's log (settings, time, and for the mixture every EM iteration). Model files of format 3
+// carry one; older files, and models made in memory without one, have none.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "btfgmm/core/btf.hpp"
+
+namespace btfgmm {
+
+// Where a tile was read from: the data set as it was named, and the size of its images
+// (0 x 0 and an empty name: not known, e.g. a tile made in memory).
+struct DataSource {
+  std::string name;  // the folder or .zip as given to fit
+  int image_width = 0, image_height = 0;
+};
+
+// The data a model was fitted to, with the model's frame.
+struct DataFingerprint {
+  DataSource source;
+  std::uint64_t content_hash = 0;  // tile_content_hash of the tile fitted
+};
+
+// One EM iteration as the fit logged it.
+struct IterationRecord {
+  double log_likelihood = 0.0;   // L of Eq. (3) for the parameters the iteration started from
+  double seconds = 0.0;          // EM time at its end since the fit began (every run of it)
+  std::uint32_t components = 0;  // alive after its M-step
+};
+
+struct FitLog {
+  // Every setting of the fit as (name, value), e.g. ("components", "600"), in order.
+  std::vector<std::pair<std::string, std::string>> settings;
+  // The fit's time: this run's, plus, for a fit that was resumed or continued, the EM time
+  // of the runs before it up to the state it went on from.
+  double seconds = 0.0;
+  std::uint32_t runs = 1;                   // 1; one more for each resume or continuation
+  std::vector<IterationRecord> iterations;  // EM's (the mixture); empty for other methods
+};
+
+struct Provenance {
+  bool recorded = false;  // false: an older file, or a model made without one
+  DataFingerprint data;
+  FitLog fit;
+};
+
+// FNV-1a (64-bit) of the tile's values as stored in memory: every float's 4 bytes,
+// little-endian, in Btf order (light-major images, rows, RGB). Equal tiles of any two reads
+// of the same images hash equal; a changed value changes it.
+std::uint64_t tile_content_hash(const Btf& tile);
+// The fingerprint of `tile`, read from `source`.
+DataFingerprint fingerprint_of(const Btf& tile, DataSource source);
+// 16 hexadecimal digits.
+std::string hash_text(std::uint64_t hash);
+// "'corduroy32/' (its 25x25 tile of 32x32 images, content hash 0123456789abcdef)" for
+// messages; "no provenance recorded" without one.
+std::string describe_source(const Provenance& p, const Tile& tile);
+
+}  // namespace btfgmm
