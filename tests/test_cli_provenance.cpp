@@ -15,34 +15,16 @@
 
 #include "btfgmm/btfgmm.hpp"
 #include "btfgmm/model/fit.hpp"
+#include "test_util.hpp"
 
 namespace {
 
 namespace fs = std::filesystem;
 
-struct CliRun {
-  int status = 0;
-  std::string out, err;
-};
+using btfgmm::test::CliRun;
 
-// The command with `args`; its stdout and stderr apart.
 CliRun run(const std::string& args) {
-  const std::string base =
-      (fs::temp_directory_path() / ("btfgmm_cli_prov_" + std::to_string(::getpid()))).string();
-  const std::string cmd =
-      std::string(BTFGMM_CLI_PATH) + " " + args + " > " + base + ".out 2> " + base + ".err";
-  CliRun r;
-  const int raw = std::system(cmd.c_str());
-  r.status = WIFEXITED(raw) ? WEXITSTATUS(raw) : -1;
-  auto slurp = [](const std::string& p) {
-    std::ifstream in(p);
-    return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
-  };
-  r.out = slurp(base + ".out");
-  r.err = slurp(base + ".err");
-  fs::remove(base + ".out");
-  fs::remove(base + ".err");
-  return r;
+  return btfgmm::test::run_cli(args, "cli_prov");
 }
 
 bool has(const std::string& text, const std::string& needle) {

@@ -22,6 +22,7 @@
 #include "btfgmm/model/model_file.hpp"
 #include "btfgmm/model/predict.hpp"
 #include "btfgmm/report/report.hpp"
+#include "test_util.hpp"
 
 namespace btfgmm {
 namespace {
@@ -466,26 +467,10 @@ TEST(Report, WritesASelfContainedReport) {
 
 // ---- btfgmm compare ------------------------------------------------------------------------
 
-struct CliRun {
-  int status = 0;
-  std::string out, err;
-};
+using test::CliRun;
 
 CliRun run(const std::string& args) {
-  const std::string base =
-      (fs::temp_directory_path() / ("btfgmm_compare_test_" + std::to_string(::getpid()))).string();
-  const std::string cmd =
-      std::string(BTFGMM_CLI_PATH) + " " + args + " > " + base + ".out 2> " + base + ".err";
-  CliRun r;
-  const int raw = std::system(cmd.c_str());
-  r.status = WIFEXITED(raw) ? WEXITSTATUS(raw) : -1;
-  auto slurp = [](const std::string& p) {
-    std::ifstream in(p);
-    return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  };
-  r.out = slurp(base + ".out");
-  r.err = slurp(base + ".err");
-  return r;
+  return test::run_cli(args, "compare_test");
 }
 
 TEST(CompareCli, TableJsonAndReportOfTheModelsTile) {

@@ -12,8 +12,8 @@
 #include <filesystem>
 #include <fstream>
 #include <limits>
-#include <optional>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -290,26 +290,10 @@ TEST(Sweep, ReportOfSeveralMethodsHasACurveEachAndTheirImages) {
 
 // ---- btfgmm sweep ------------------------------------------------------------------------
 
-struct CliRun {
-  int status = 0;
-  std::string out, err;
-};
+using test::CliRun;
 
 CliRun run(const std::string& args) {
-  const std::string base =
-      (fs::temp_directory_path() / ("btfgmm_sweep_test_" + std::to_string(::getpid()))).string();
-  const std::string cmd =
-      std::string(BTFGMM_CLI_PATH) + " " + args + " > " + base + ".out 2> " + base + ".err";
-  CliRun r;
-  const int raw = std::system(cmd.c_str());
-  r.status = WIFEXITED(raw) ? WEXITSTATUS(raw) : -1;
-  auto slurp = [](const std::string& p) {
-    std::ifstream in(p);
-    return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  };
-  r.out = slurp(base + ".out");
-  r.err = slurp(base + ".err");
-  return r;
+  return test::run_cli(args, "sweep_test");
 }
 
 std::string slurp(const fs::path& p) {

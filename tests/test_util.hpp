@@ -3,7 +3,14 @@
 
 #include <gtest/gtest.h>
 
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cstdlib>
 #include <exception>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
 #include <string>
 
 #include "btfgmm/core/error.hpp"
@@ -25,5 +32,35 @@ std::string error_of(F f) {
   ADD_FAILURE() << "no error";
   return "";
 }
+
+// The btfgmm command's exit status and its stdout and stderr apart.
+struct CliRun {
+  int status = 0;
+  std::string out, err;
+};
+
+#ifdef BTFGMM_CLI_PATH
+// Runs the built command with `args` (a shell command line's tail); `tag` names its
+// temporary output files, removed afterwards.
+inline CliRun run_cli(const std::string& args, const std::string& tag) {
+  const std::string base = (std::filesystem::temp_directory_path() /
+                            ("btfgmm_" + tag + "_" + std::to_string(::getpid())))
+                               .string();
+  const std::string cmd =
+      std::string(BTFGMM_CLI_PATH) + " " + args + " > " + base + ".out 2> " + base + ".err";
+  CliRun r;
+  const int raw = std::system(cmd.c_str());
+  r.status = WIFEXITED(raw) ? WEXITSTATUS(raw) : -1;
+  auto slurp = [](const std::string& p) {
+    std::ifstream in(p);
+    return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+  };
+  r.out = slurp(base + ".out");
+  r.err = slurp(base + ".err");
+  std::filesystem::remove(base + ".out");
+  std::filesystem::remove(base + ".err");
+  return r;
+}
+#endif
 
 }  // namespace btfgmm::test
