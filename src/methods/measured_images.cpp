@@ -148,6 +148,11 @@ Btf MeasuredImages::decode(const DirectionSet& lights, const DirectionSet& views
   out.set_origin(frame_.origin);
   const std::size_t n = frame_.pixels() * 3;
   const std::ptrdiff_t pairs = std::ptrdiff_t(lights.size() * views.size());
+  // Which asked directions are measured, looked up once for all the pairs.
+  std::vector<std::optional<std::size_t>> measured_light(lights.size()),
+      measured_view(views.size());
+  for (std::size_t i = 0; i < lights.size(); ++i) measured_light[i] = frame_.lights.find(lights[i]);
+  for (std::size_t i = 0; i < views.size(); ++i) measured_view[i] = frame_.views.find(views[i]);
 #pragma omp parallel
   {
     std::vector<float> tile(n), part(n);
@@ -156,7 +161,8 @@ Btf MeasuredImages::decode(const DirectionSet& lights, const DirectionSet& views
     for (std::ptrdiff_t p = 0; p < pairs; ++p) {
       const Direction& light = lights[std::size_t(p) / views.size()];
       const Direction& view = views[std::size_t(p) % views.size()];
-      const std::optional<std::size_t> li = frame_.lights.find(light), vi = frame_.views.find(view);
+      const std::optional<std::size_t> li = measured_light[std::size_t(p) / views.size()],
+                                       vi = measured_view[std::size_t(p) % views.size()];
       if (li && vi) {
         measured_image(*li, *vi, tile.data());
       } else {
