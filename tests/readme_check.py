@@ -1,0 +1,112 @@
+#!/usr/bin/env python3
+"""Runs every command block of README.md, in order, as a new user would, and fails on the first
+command that does not succeed.
+
+Usage: readme_check.py README.md BTFGMM_BINARY SOURCE_DIR
+
+The commands run in one empty temporary folder holding a link to the source tree's examples/,
+at small sizes so that the whole README takes seconds: `generate` renders fewer directions,
+a fit takes at most MAX_COMPONENTS components and a sweep two iterations a fit (every other
+option as written). Lines that
+are not commands of the tool (`make ...`) and indented comment lines are skipped. A fit
+whose checkpoint a later command resumes is interrupted with SIGINT, as the README says a
+user's Ctrl-C does, once its first checkpoint is written.
+"""
+import os
+import re
+import shlex
+import signal
+import subprocess
+import sys
+import tempfile
+import time
+
+MAX_COMPONENTS = 100
+SWEEP_ITERATIONS = ["--iterations", "2"]  # every fit of a sweep, unless the README sets them
+SMALL_GENERATE = ["--lights", "spiral:9", "--views", "spiral:4", "--supersample", "1"]
+
+
+def command_lines(readme_text):
+    """The README's commands: the unindented lines of its unlabelled code blocks."""
+    lines, inside = [], False
+    for raw in readme_text.splitlines():
+        if raw.startswith("```"):
+            inside = not inside and raw.strip() == "```"
+            continue
+        if not inside or not raw.strip() or raw[0].isspace() or raw.startswith("#"):
+            continue
+        lines.append(raw)
+    return lines
+
+
+def words_of(line):
+    """The command's words without its trailing comment."""
+    return shlex.split(line, comments=True)
+
+
+def smaller(words):
+    """The command at test size: fewer directions, at most MAX_COMPONENTS components."""
+    out = list(words)
+    for i, w in enumerate(out[:-1]):
+        if w in ("--components", "-M") and int(out[i + 1]) > MAX_COMPONENTS:
+            out[i + 1] = str(MAX_COMPONENTS)
+    if len(out) > 1 and out[1] == "generate":
+        out += SMALL_GENERATE
+    if len(out) > 1 and out[1] == "sweep" and "--iterations" not in out:
+        out += SWEEP_ITERATIONS
+    return out
+
+
+def option(words, name):
+    return words[words.index(name) + 1] if name in words else None
+
+
+def run_interrupted(argv, checkpoint, cwd):
+    """Starts a fit, sends SIGINT once its checkpoint exists; the checkpoint must remain."""
+    proc = subprocess.Popen(argv, cwd=cwd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    path = os.path.join(cwd, checkpoint)
+    while proc.poll() is None and not os.path.exists(path):
+        time.sleep(0.005)
+    if proc.poll() is None:
+        proc.send_signal(signal.SIGINT)
+    _, err = proc.communicate(timeout=600)
+    if not os.path.exists(path):
+        sys.exit(f"FAIL: the fit ended (exit {proc.returncode}) before it could be interrupted, "
+                 f"or left no checkpoint {checkpoint}:\n{err.decode()}")
+    return proc.returncode
+
+
+def main():
+    readme, binary, source = sys.argv[1], os.path.abspath(sys.argv[2]), os.path.abspath(sys.argv[3])
+    commands = command_lines(open(readme, encoding="utf-8").read())
+    if len(commands) < 20:
+        sys.exit(f"FAIL: only {len(commands)} commands found in {readme}; is the parser wrong?")
+    resumed = {option(words_of(c), "--resume") for c in commands} - {None}
+    ran = 0
+    with tempfile.TemporaryDirectory(prefix="btfgmm_readme_") as work:
+        os.symlink(os.path.join(source, "examples"), os.path.join(work, "examples"))
+        for line in commands:
+            words = words_of(line)
+            if words[0] == "make":
+                continue
+            if words[0] != "btfgmm":
+                sys.exit(f"FAIL: README command is not btfgmm's: {line}")
+            argv = [binary] + smaller(words)[1:]
+            start = time.time()
+            checkpoint = option(words, "--checkpoint")
+            if words[1] == "fit" and checkpoint in resumed:
+                code = run_interrupted(argv, checkpoint, work)
+                note = f"interrupted, exit {code}"
+            else:
+                done = subprocess.run(argv, cwd=work, capture_output=True, timeout=600)
+                if done.returncode != 0:
+                    sys.exit(f"FAIL (exit {done.returncode}): {line}\n  ran: {shlex.join(argv)}\n"
+                             f"{done.stderr.decode()}{done.stdout.decode()[-2000:]}")
+                note = "ok"
+            ran += 1
+            print(f"{time.time() - start:6.2f} s  {note:18s} {line[:100]}")
+    print(f"README: {ran} commands ran in order")
+
+
+if __name__ == "__main__":
+    main()
