@@ -37,6 +37,28 @@ struct RenderOptions {
   bool overwrite = false, json = false, quiet = false, force = false;
 };
 
+// What the comparison figure states besides its metrics: the model and the scene.
+btfgmm::FigureCaption figure_caption(const RenderOptions& o, const btfgmm::Representation& model) {
+  const auto angles = [](const std::string& dir) {
+    const auto comma = dir.find(',');
+    return fmt::format("θ {}° φ {}°", dir.substr(0, comma), dir.substr(comma + 1));
+  };
+  btfgmm::FigureCaption c;
+  c.model = fmt::format("{}, {}", model.method(), model.size_text());
+  const std::string light =
+      o.point_light.empty() ? "light " + angles(o.light) : "point light at (" + o.point_light + ")";
+  const std::string camera =
+      o.eye.empty() ? "camera " + angles(o.camera) : "camera at (" + o.eye + ")";
+  c.scene.push_back(fmt::format("{} · {} · mesh {} · tile repeated {:g}× · exposure {:+g} EV",
+                                light, camera, fs::path(o.mesh).filename().string(), o.repeat,
+                                o.exposure));
+  c.scene.push_back(
+      fmt::format("model evaluated to {:g} levels (--tolerance); data interpolated "
+                  "between measured directions",
+                  o.tolerance));
+  return c;
+}
+
 // A world direction "THETA,PHI": theta from +z in [0, 180] (a light or a camera may be
 // below the object), phi from +x toward +y.
 btfgmm::Direction parse_world_direction(const std::string& text, const std::string& option) {
@@ -224,8 +246,8 @@ void run_render(const RenderOptions& o) {
   }
   if (model_img && data_img) {
     const btfgmm::RenderComparison c = btfgmm::compare_renderings(*data_img, *model_img);
-    const btfgmm::Image fig =
-        btfgmm::comparison_figure(*data_img, *model_img, c, o.difference_scale);
+    const btfgmm::Image fig = btfgmm::comparison_figure(
+        *data_img, *model_img, c, o.difference_scale, figure_caption(o, *model));
     btfgmm::write_picture(o.out, fig.width, fig.height, fig.rgb);
     j["data_match"] = std::string(btfgmm::to_string(match));
     j["rmse"] = c.rmse;

@@ -22,6 +22,7 @@
 #include "btfgmm/model/fit.hpp"
 #include "btfgmm/model/model.hpp"
 #include "btfgmm/model/predict.hpp"
+#include "btfgmm/render/font.hpp"
 #include "btfgmm/render/render.hpp"
 
 namespace {
@@ -430,15 +431,43 @@ TEST(Render, ComparisonMetricsAndFigure) {
   const Image fig = comparison_figure(a, b, off);
   EXPECT_GT(fig.width, 3 * s.width);
   EXPECT_GT(fig.height, s.height);
-  // The difference panel shows 10 x 2 levels on the object.
-  const int gap = (fig.width - 3 * s.width) / 2;
-  const std::size_t centre = (std::size_t(s.height / 2) * std::size_t(fig.width) +
+  // The difference panel shows 10 x 2 levels on the object. The panels start under a line of
+  // titles (12-pixel text at this width, and half of that as a margin).
+  const int gap = (fig.width - 3 * s.width) / 2, top = label_line_height(12) + 6;
+  const std::size_t centre = (std::size_t(top + s.height / 2) * std::size_t(fig.width) +
                               std::size_t(2 * (s.width + gap) + s.width / 2)) *
                              3;
   EXPECT_NEAR(fig.rgb[centre], 20.0f, 0.01f);
+  // Each line of the caption's scene adds a line of text under the figure.
+  const Image captioned = comparison_figure(a, b, off, 10.0, {"gm, M = 9", {"light", "camera"}});
+  EXPECT_EQ(captioned.height, fig.height + 2 * label_line_height(12));
   Rendering small = a;
   small.width = 10;
   EXPECT_THROW(compare_renderings(a, small), Error);
+}
+
+// The figure's labels are drawn from a TrueType font, anti-aliased, with the Greek letters and
+// signs they use; the built-in pixel font stands in only where no font file is installed.
+TEST(Render, LabelsAreDrawnFromATrueTypeFont) {
+  if (font_name().find(".ttf") == std::string::npos)
+    GTEST_SKIP() << "no TrueType font installed (" << font_name() << "): fonts-dejavu-core";
+  Image img;
+  img.width = 200;
+  img.height = 40;
+  img.rgb.assign(std::size_t(img.width * img.height) * 3, 255.0f);
+  const int w = draw_label(img, 2, 2, "θ 45° φ 30° ×10", 20, {0, 0, 0});
+  EXPECT_GT(w, 100);
+  EXPECT_LT(w, 200);
+  EXPECT_EQ(w, label_width("θ 45° φ 30° ×10", 20));
+  EXPECT_GT(label_width("θ", 20), 5);  // a glyph of its own, not a replacement
+  std::size_t ink = 0, grey = 0;
+  for (float v : img.rgb) {
+    ink += v < 128.0f;
+    grey += v > 5.0f && v < 250.0f;
+  }
+  EXPECT_GT(ink, 300u);
+  EXPECT_GT(grey, 300u);  // anti-aliased edges, which the pixel font does not have
+  EXPECT_GE(label_line_height(20), 20);
 }
 
 // ---- the commands -------------------------------------------------------------------------

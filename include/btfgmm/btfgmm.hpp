@@ -49,6 +49,7 @@
 #include "btfgmm/render/camera.hpp"
 #include "btfgmm/render/data_evaluator.hpp"
 #include "btfgmm/render/figure.hpp"
+#include "btfgmm/render/font.hpp"
 #include "btfgmm/render/mesh.hpp"
 #include "btfgmm/render/model_evaluator.hpp"
 #include "btfgmm/render/rasterize.hpp"

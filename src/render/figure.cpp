@@ -1,6 +1,6 @@
 // The comparison of the paper's Fig. 3: RMSE, PSNR and SSIM of two renderings over the
-// object, and the figure data | model | difference with the metrics written in a 5 x 7 pixel
-// font under it.
+// object, and the figure data | model | difference with the metrics and the scene written
+// under it.
 #include "btfgmm/render/figure.hpp"
 
 #include <fmt/format.h>
@@ -14,6 +14,7 @@
 
 #include "btfgmm/core/error.hpp"
 #include "btfgmm/measure/metrics.hpp"
+#include "btfgmm/render/font.hpp"
 #include "btfgmm/render/render.hpp"
 
 namespace btfgmm {
@@ -76,106 +77,84 @@ RenderComparison compare_renderings(const Rendering& a, const Rendering& b) {
 
 namespace {
 
-// A 5 x 7 pixel font: seven rows of five bits (bit 4 the leftmost pixel).
-struct Glyph {
-  char c;
-  std::array<std::uint8_t, 7> rows;
-};
-constexpr Glyph kFont[] = {
-    {'A', {14, 17, 17, 31, 17, 17, 17}}, {'B', {30, 17, 17, 30, 17, 17, 30}},
-    {'C', {14, 17, 16, 16, 16, 17, 14}}, {'D', {28, 18, 17, 17, 17, 18, 28}},
-    {'E', {31, 16, 16, 30, 16, 16, 31}}, {'F', {31, 16, 16, 30, 16, 16, 16}},
-    {'G', {14, 17, 16, 23, 17, 17, 15}}, {'H', {17, 17, 17, 31, 17, 17, 17}},
-    {'I', {14, 4, 4, 4, 4, 4, 14}},      {'J', {7, 2, 2, 2, 2, 18, 12}},
-    {'K', {17, 18, 20, 24, 20, 18, 17}}, {'L', {16, 16, 16, 16, 16, 16, 31}},
-    {'M', {17, 27, 21, 21, 17, 17, 17}}, {'N', {17, 17, 25, 21, 19, 17, 17}},
-    {'O', {14, 17, 17, 17, 17, 17, 14}}, {'P', {30, 17, 17, 30, 16, 16, 16}},
-    {'Q', {14, 17, 17, 17, 21, 18, 13}}, {'R', {30, 17, 17, 30, 20, 18, 17}},
-    {'S', {15, 16, 16, 14, 1, 1, 30}},   {'T', {31, 4, 4, 4, 4, 4, 4}},
-    {'U', {17, 17, 17, 17, 17, 17, 14}}, {'V', {17, 17, 17, 17, 17, 10, 4}},
-    {'W', {17, 17, 17, 21, 21, 21, 10}}, {'X', {17, 17, 10, 4, 10, 17, 17}},
-    {'Y', {17, 17, 17, 10, 4, 4, 4}},    {'Z', {31, 1, 2, 4, 8, 16, 31}},
-    {'0', {14, 17, 19, 21, 25, 17, 14}}, {'1', {4, 12, 4, 4, 4, 4, 14}},
-    {'2', {14, 17, 1, 2, 4, 8, 31}},     {'3', {31, 2, 4, 2, 1, 17, 14}},
-    {'4', {2, 6, 10, 18, 31, 2, 2}},     {'5', {31, 16, 30, 1, 1, 17, 14}},
-    {'6', {6, 8, 16, 30, 17, 17, 14}},   {'7', {31, 1, 2, 4, 8, 8, 8}},
-    {'8', {14, 17, 17, 14, 17, 17, 14}}, {'9', {14, 17, 17, 15, 1, 2, 12}},
-    {'.', {0, 0, 0, 0, 0, 12, 12}},      {',', {0, 0, 0, 0, 12, 4, 8}},
-    {':', {0, 12, 12, 0, 12, 12, 0}},    {'/', {0, 1, 2, 4, 8, 16, 0}},
-    {'|', {4, 4, 4, 4, 4, 4, 4}},        {'=', {0, 0, 31, 0, 31, 0, 0}},
-    {'%', {24, 25, 2, 4, 8, 19, 3}},     {'+', {0, 4, 4, 31, 4, 4, 0}},
-    {'-', {0, 0, 0, 31, 0, 0, 0}},       {'(', {2, 4, 8, 8, 8, 4, 2}},
-    {')', {8, 4, 2, 2, 2, 4, 8}},        {' ', {0, 0, 0, 0, 0, 0, 0}},
-};
-
-const Glyph* glyph(char c) {
-  const char u = char(std::toupper(static_cast<unsigned char>(c)));
-  for (const Glyph& g : kFont)
-    if (g.c == u) return &g;
-  return nullptr;
-}
-
-}  // namespace
-
-void draw_text(Image& image, int x, int y, const std::string& text, int scale,
-               std::array<float, 3> rgb) {
-  scale = std::max(1, scale);
-  int cx = x;
-  for (char ch : text) {
-    const Glyph* g = glyph(ch);
-    if (g)
-      for (int row = 0; row < 7; ++row)
-        for (int col = 0; col < 5; ++col) {
-          if (!((g->rows[std::size_t(row)] >> (4 - col)) & 1)) continue;
-          for (int dy = 0; dy < scale; ++dy)
-            for (int dx = 0; dx < scale; ++dx) {
-              const int px = cx + col * scale + dx, py = y + row * scale + dy;
-              if (px < 0 || py < 0 || px >= image.width || py >= image.height) continue;
-              float* o =
-                  &image.rgb[(std::size_t(py) * std::size_t(image.width) + std::size_t(px)) * 3];
-              o[0] = rgb[0];
-              o[1] = rgb[1];
-              o[2] = rgb[2];
-            }
-        }
-    cx += 6 * scale;
-  }
-}
-
-Image comparison_figure(const Rendering& data, const Rendering& model,
-                        const RenderComparison& metrics, double difference_scale) {
-  if (data.width != model.width || data.height != model.height)
-    throw Error(Error::Kind::kArgument, "comparison figure: the renderings differ in size");
-  const int w = data.width, h = data.height, gap = std::max(2, w / 200);
-  const int scale = std::max(1, std::min(w, 900) / 260);
-  const int line = 9 * scale, strip = 3 * line + 2 * scale;
+// A white image of w x h pixels.
+Image blank(int w, int h) {
   Image img;
-  img.width = 3 * w + 2 * gap;
-  img.height = h + strip;
-  img.rgb.assign(std::size_t(img.width) * std::size_t(img.height) * 3, 255.0f);
+  img.width = w;
+  img.height = h;
+  img.rgb.assign(std::size_t(w) * std::size_t(h) * 3, 255.0f);
+  return img;
+}
+
+// The three panels side by side from row `top`: data, model and the scaled difference.
+void draw_panels(Image& img, const Rendering& data, const Rendering& model, int top, int gap,
+                 double difference_scale) {
+  const int w = data.width, h = data.height;
   for (int y = 0; y < h; ++y)
     for (int x = 0; x < w; ++x) {
       const std::size_t p = (std::size_t(y) * std::size_t(w) + std::size_t(x)) * 3;
+      const std::size_t row = std::size_t(y + top) * std::size_t(img.width);
       for (int c = 0; c < 3; ++c) {
         const float a = clamp255(data.rgb[p + std::size_t(c)]),
                     b = clamp255(model.rgb[p + std::size_t(c)]);
         const float d = clamp255(float(difference_scale) * std::abs(a - b));
-        const std::size_t row = std::size_t(y) * std::size_t(img.width);
         img.rgb[(row + std::size_t(x)) * 3 + std::size_t(c)] = a;
         img.rgb[(row + std::size_t(x + w + gap)) * 3 + std::size_t(c)] = b;
         img.rgb[(row + std::size_t(x + 2 * (w + gap))) * 3 + std::size_t(c)] = d;
       }
     }
+}
+
+// A horizontal grey ramp from black (0 levels of difference) to white (255 / scale levels and
+// more), labelled at both ends, at (x, y), `width` wide; returns its height.
+int draw_difference_scale(Image& img, int x, int y, int width, int px, double scale) {
   const std::array<float, 3> ink{0, 0, 0};
-  const int ty = h + scale;
-  draw_text(img, scale, ty, "DATA", scale, ink);
-  draw_text(img, w + gap + scale, ty, "MODEL", scale, ink);
-  draw_text(img, 2 * (w + gap) + scale, ty, fmt::format("DIFFERENCE X{:g}", difference_scale),
-            scale, ink);
-  draw_text(img, scale, ty + line,
-            fmt::format("RMSE {:.2f}   PSNR {:.2f} DB   SSIM {:.3f}", metrics.rmse, metrics.psnr,
-                        metrics.ssim),
-            scale, ink);
+  const int bar = std::max(4, px / 2), left = label_width("0 ", px);
+  const std::string high = fmt::format(" {:g} levels or more", 255.0 / scale);
+  const int ramp = std::max(8, width - left - label_width(high, px));
+  draw_label(img, x, y, "0 ", px, ink);
+  for (int i = 0; i < ramp; ++i) {
+    const float v = 255.0f * float(i) / float(std::max(1, ramp - 1));
+    for (int r = 0; r < bar; ++r) {
+      const int yy = y + (label_line_height(px) - bar) / 2 + r;
+      if (yy < 0 || yy >= img.height || x + left + i >= img.width) continue;
+      float* o =
+          &img.rgb[(std::size_t(yy) * std::size_t(img.width) + std::size_t(x + left + i)) * 3];
+      o[0] = o[1] = o[2] = v;
+    }
+  }
+  draw_label(img, x + left + ramp, y, high, px, ink);
+  return label_line_height(px);
+}
+
+}  // namespace
+
+Image comparison_figure(const Rendering& data, const Rendering& model,
+                        const RenderComparison& metrics, double difference_scale,
+                        const FigureCaption& caption) {
+  if (data.width != model.width || data.height != model.height)
+    throw Error(Error::Kind::kArgument, "comparison figure: the renderings differ in size");
+  const int w = data.width, h = data.height, gap = std::max(2, w / 200);
+  const int px = std::clamp(w / 30, 12, 40), line = label_line_height(px), pad = px / 2;
+  const std::vector<std::string> under = {
+      fmt::format("RMSE {:.2f} levels · PSNR {:.2f} dB · SSIM {:.3f}, over the {} pixels on "
+                  "the object (background left out; compare measures the tile's images)",
+                  metrics.rmse, metrics.psnr, metrics.ssim, metrics.pixels)};
+  const int text_lines = 2 + int(under.size() + caption.scene.size());
+  Image img = blank(3 * w + 2 * gap, h + text_lines * line + 3 * pad);
+  const std::array<float, 3> ink{0, 0, 0};
+  const std::string model_title =
+      caption.model.empty() ? std::string("model") : "model: " + caption.model;
+  const std::string titles[3] = {"data (measured)", model_title,
+                                 fmt::format("{:g} × |data − model|", difference_scale)};
+  for (int k = 0; k < 3; ++k) draw_label(img, k * (w + gap) + pad, pad / 2, titles[k], px, ink);
+  const int top = line + pad;
+  draw_panels(img, data, model, top, gap, difference_scale);
+  int y = top + h + pad / 2;
+  draw_difference_scale(img, 2 * (w + gap) + pad, y, w - 2 * pad, px, difference_scale);
+  y += line + pad / 2;
+  for (const std::string& t : under) y += (draw_label(img, pad, y, t, px, ink), line);
+  for (const std::string& t : caption.scene) y += (draw_label(img, pad, y, t, px, ink), line);
   return img;
 }
 

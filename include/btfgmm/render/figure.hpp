@@ -6,6 +6,7 @@
 #include <array>
 #include <cstddef>
 #include <string>
+#include <vector>
 
 #include "btfgmm/io/image.hpp"
 
@@ -23,14 +24,19 @@ struct RenderComparison {
 };
 RenderComparison compare_renderings(const Rendering& reference, const Rendering& test);
 
-// data | model | difference x `difference_scale` side by side, with the metrics written in a
-// strip under them. Values clamped to 0-255.
-Image comparison_figure(const Rendering& data, const Rendering& model,
-                        const RenderComparison& metrics, double difference_scale = 10.0);
+// What the comparison figure writes besides the metrics: the model's name and size ("gm,
+// M = 600"), and lines that state the scene (light, camera, mesh, tile repeat, tolerance).
+struct FigureCaption {
+  std::string model;
+  std::vector<std::string> scene;
+};
 
-// A line of text (upper-case letters, digits, . , : / | = % x + - and space) drawn with a
-// 5 x 7 pixel font at `scale`, in levels `rgb`, into an image; for labels.
-void draw_text(Image& image, int x, int y, const std::string& text, int scale,
-               std::array<float, 3> rgb);
+// data | model | difference x `difference_scale` side by side, each panel titled, with a
+// grey scale of the difference (0 to 255 / difference_scale levels), the metrics (and what
+// they are measured over) and the caption's scene written under them in a TrueType font
+// (render/font.hpp). Values clamped to 0-255.
+Image comparison_figure(const Rendering& data, const Rendering& model,
+                        const RenderComparison& metrics, double difference_scale = 10.0,
+                        const FigureCaption& caption = {});
 
 }  // namespace btfgmm
