@@ -185,6 +185,7 @@ class StoredImages final : public MeasuredImages {
   double size_order() const override { return 1; }
   std::uint64_t parameter_count() const override { return btf_.data().size(); }
   std::vector<std::uint8_t> payload() const override { return {}; }
+  FactorEncoding encoding() const override { return FactorEncoding::kF32; }
 
  private:
   const Btf& btf_;

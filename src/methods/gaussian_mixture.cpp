@@ -82,6 +82,10 @@ std::vector<std::pair<std::string, std::string>> GaussianMixture::details() cons
   };
 }
 
+FactorEncoding GaussianMixture::encoding() const {
+  return model_.precision == Precision::kF16 ? FactorEncoding::kF16 : FactorEncoding::kF32;
+}
+
 std::unique_ptr<Representation> fit_gaussian_mixture(const Btf& tile, const MethodSettings& s) {
   if (s.encoding == FactorEncoding::kQ8)
     throw Error(Error::Kind::kArgument,

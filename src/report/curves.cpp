@@ -6,6 +6,7 @@
 #include "btfgmm/model/model_file.hpp"
 #include "btfgmm/report/chart.hpp"
 #include "report/sections.hpp"
+#include "report/svg.hpp"
 
 namespace btfgmm::report {
 
@@ -47,6 +48,31 @@ Chart psnr_against_components_chart(std::span<const ModelComparison> models) {
   return c;
 }
 
+// The mixtures' convergence: L of Eq. (3) at each EM iteration, from their files' fit logs.
+bool has_fit_log(const ModelComparison& x) {
+  return !x.model->provenance().fit.iterations.empty();
+}
+
+Chart convergence_chart(std::span<const ModelComparison> models) {
+  Chart c;
+  c.title = "Gaussian mixtures: convergence of EM";
+  c.x_label = "EM iteration";
+  c.x_integer = true;
+  c.y_label = "mean log-likelihood L (nats per sample)";
+  for (auto* x : mixtures_by_m(models)) {
+    if (!has_fit_log(*x)) continue;
+    ChartSeries s;
+    s.label = x->name + " (" + x->model->size_text() + ")";
+    s.colour = svg::kPalette[c.series.size() % svg::kPaletteSize];
+    s.markers = x->model->provenance().fit.iterations.size() <= 12;
+    const auto& its = x->model->provenance().fit.iterations;
+    for (std::size_t i = 0; i < its.size(); ++i)
+      s.points.push_back({double(i + 1), its[i].log_likelihood});
+    c.series.push_back(s);
+  }
+  return c;
+}
+
 }  // namespace
 
 std::string curves_section(std::span<const ModelComparison> models) {
@@ -54,6 +80,10 @@ std::string curves_section(std::span<const ModelComparison> models) {
   curves += svg_chart(rate_distortion_chart(models));
   curves += svg_chart(compression_ratio_chart(models));
   if (!mixtures_by_m(models).empty()) curves += svg_chart(psnr_against_components_chart(models));
+  if (std::any_of(models.begin(), models.end(), [](const ModelComparison& x) {
+        return x.model->method() == kMixtureMethod && has_fit_log(x);
+      }))
+    curves += svg_chart(convergence_chart(models));
   curves += "</div>";
   if (models.size() == 1)
     curves +=
@@ -64,7 +94,9 @@ std::string curves_section(std::span<const ModelComparison> models) {
         "<p class=\"note\">Rate-distortion: each method's models joined in the order of their "
         "file's compression ratio; the wide grey steps are the Pareto front (the highest PSNR "
         "at a ratio or any larger, over all models); hollow markers place the same models by "
-        "the paper's count. Models of other tiles are on the same axes.</p>";
+        "the paper's count. Models of other tiles are on the same axes. Convergence: each EM "
+        "iteration's L is that of the parameters it started from (from the model files' fit "
+        "logs).</p>";
   curves += "</section>\n";
   return curves;
 }

@@ -4,6 +4,9 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <array>
+#include <utility>
+#include <vector>
 
 #include "btfgmm/report/pictures.hpp"
 #include "report/svg.hpp"
@@ -117,29 +120,46 @@ std::string grid_svg(const std::string& png, const DirectionSet& lights, const D
 }
 
 // A vertical colour bar of the viridis map from lo_db (bottom) to hi_db (top).
-std::string colour_bar(double lo_db, double hi_db, int height, const std::string& id) {
+namespace {
+
+// A vertical bar of the gradient `stops` (offset 0 at the bottom) from lo to hi, ticked.
+std::string ticked_bar(double lo, double hi, int height, const std::string& id,
+                       const std::string& unit,
+                       const std::vector<std::pair<double, std::array<float, 3>>>& stops) {
   std::string s = "<defs><linearGradient id=\"" + id + "\" x1=\"0\" y1=\"1\" x2=\"0\" y2=\"0\">";
-  for (int i = 0; i <= 8; ++i) {
-    const auto c = colour_map(i / 8.0);
-    s += fmt::format("<stop offset=\"{}\" stop-color=\"rgb({},{},{})\"/>", i / 8.0, int(c[0]),
-                     int(c[1]), int(c[2]));
-  }
+  for (const auto& [t, c] : stops)
+    s += fmt::format("<stop offset=\"{}\" stop-color=\"rgb({},{},{})\"/>", t, int(c[0]), int(c[1]),
+                     int(c[2]));
   s += "</linearGradient></defs>";
   s += fmt::format(
       "<rect x=\"0\" y=\"0\" width=\"14\" height=\"{}\" fill=\"url(#{})\" "
       "stroke=\"#9ca3af\"/>",
       height, id);
-  const Axis a = make_axis(lo_db, hi_db, false, 6);
-  for (double v = a.lo; v <= hi_db + 1e-9; v += a.step) {
-    if (v < lo_db - 1e-9) continue;
-    const double y = height - (v - lo_db) / (hi_db - lo_db) * height;
+  const Axis a = make_axis(lo, hi, false, 6);
+  for (double v = a.lo; v <= hi + 1e-9; v += a.step) {
+    if (v < lo - 1e-9) continue;
+    const double y = height - (v - lo) / (hi - lo) * height;
     s += fmt::format(
         "<line x1=\"14\" x2=\"18\" y1=\"{0}\" y2=\"{0}\" stroke=\"#374151\"/>"
         "<text x=\"20\" y=\"{1}\" fill=\"#374151\">{2}</text>",
         y, y + 3.5, tick_text(v, a.step));
   }
-  s += "<text x=\"0\" y=\"-8\" fill=\"#374151\">dB</text>";
+  s += "<text x=\"0\" y=\"-8\" fill=\"#374151\">" + unit + "</text>";
   return s;
+}
+
+}  // namespace
+
+std::string colour_bar(double lo_db, double hi_db, int height, const std::string& id) {
+  std::vector<std::pair<double, std::array<float, 3>>> stops;
+  for (int i = 0; i <= 8; ++i) stops.emplace_back(i / 8.0, colour_map(i / 8.0));
+  return ticked_bar(lo_db, hi_db, height, id, "dB", stops);
+}
+
+std::string grey_bar(double lo, double hi, int height, const std::string& id,
+                     const std::string& unit) {
+  return ticked_bar(lo, hi > lo ? hi : lo + 1.0, height, id, unit,
+                    {{0.0, {0, 0, 0}}, {1.0, {255, 255, 255}}});
 }
 
 }  // namespace btfgmm::svg

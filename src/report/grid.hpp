@@ -21,5 +21,9 @@ std::string grid_svg(const std::string& png, const DirectionSet& lights, const D
 // A vertical colour bar of the viridis map (colour_map) from lo_db (bottom) to hi_db (top),
 // `height` pixels, its gradient named `id`.
 std::string colour_bar(double lo_db, double hi_db, int height, const std::string& id);
+// A vertical grey bar from black (lo, bottom) to white (hi, top), ticked in `unit`: the scale of
+// a picture whose grey level is proportional to a value.
+std::string grey_bar(double lo, double hi, int height, const std::string& id,
+                     const std::string& unit);
 
 }  // namespace btfgmm::svg

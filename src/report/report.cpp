@@ -26,6 +26,7 @@ namespace {
 
 using svg::colour_bar;
 using svg::escape;
+using svg::grey_bar;
 using svg::grid_svg;
 
 using report::angles;
@@ -74,6 +75,7 @@ figcaption{font-size:12px;color:#374151;margin-top:2px}figcaption b{color:#11182
 .maps{display:flex;flex-direction:column;gap:8px;flex:0 0 auto}
 .curves{display:flex;gap:14px;flex-wrap:wrap}
 .note{color:#6b7280;font-size:12px;margin:6px 0 0}.wide{overflow-x:auto}
+.ramp{display:inline-block;width:120px;height:10px;vertical-align:middle;background:linear-gradient(to right,#000,#fff);border:1px solid #9ca3af}
 code{font-size:12px;background:#f3f4f6;padding:0 3px;border-radius:3px}
 .notes li{margin:2px 0;font-size:13px}
 </style></head><body><main>
@@ -144,14 +146,14 @@ std::string model_row(const ModelComparison& c, bool pareto) {
   const ModelFrame& f = c.model->frame();
   return fmt::format(
       "<tr><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td>"
-      "<td>{}</td><td>{}</td><td>{:.3f}</td><td>{} ({}; {})</td><td>{}</td><td>{}</td>"
-      "<td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>",
+      "<td>{}</td><td>{}</td><td>{:.3f}</td><td>{}<br><small>{}; {}</small></td><td>{}</td><td>{}</td>"
+      "<td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>",
       escape(c.name), escape(std::string(c.model->method())), escape(c.model->size_text()),
       tile_text(c.tile), c.model->parameter_count(), rmse_text(q.rmse, f.format), db(q.psnr_db),
       q.ssim, db(q.images[w].psnr_db), angles(f.lights[w / q.views]), angles(f.views[w % q.views]),
       ratio(c.model->paper_ratio()), c.file_bytes ? ratio(c.model->file_ratio(c.file_bytes)) : "",
-      c.file_bytes ? human_bytes(double(c.file_bytes)) : "",
-      // Not stored in model files (they are reproducible): blank when unknown.
+      c.file_bytes ? human_bytes(double(c.file_bytes)) : "", to_string(c.model->encoding()),
+      // Recorded in the model's provenance since format version 3: blank when unknown.
       c.fit_seconds > 0 ? time_text(c.fit_seconds) : std::string(),
       c.decode_seconds > 0 ? time_text(c.decode_seconds) : std::string(), pareto ? "&#9733;" : "");
 }
@@ -169,7 +171,7 @@ std::string mean_brdf_rows(std::span<const ModelComparison> models) {
     h += fmt::format(
         "<tr class=\"base\"><td>mean BRDF alone</td><td></td><td></td><td>{}</td><td>{}</td>"
         "<td>{}</td><td>{}</td><td>{:.3f}</td><td>{}</td><td></td><td></td><td></td><td></td>"
-        "<td></td><td></td></tr>",
+        "<td></td><td></td><td></td></tr>",
         tile_text(c.tile), c.model->frame().lights.size() * c.model->frame().views.size() * 3,
         rmse_text(b.rmse, c.model->frame().format), db(b.psnr_db), b.ssim,
         db(b.images[b.worst_psnr].psnr_db));
@@ -195,7 +197,8 @@ std::string models_table(std::span<const ModelComparison> models, const ReportOp
       "class=\"wide\"><table><tr><th>model</th><th>method</th><th>size</th><th>tile"
       "</th><th>values stored</th><th>RMSE</th><th>PSNR dB</th><th>SSIM</th><th>worst image PSNR "
       "(light; view)</th>"
-      "<th>C.R. paper</th><th>C.R. file</th><th>file</th><th>fit time</th><th>decode</th>"
+      "<th>C.R. paper</th><th>C.R. file</th><th>file</th><th>precision</th><th>fit time</th>"
+      "<th>decode</th>"
       "<th>Pareto</th></tr>";
   const std::vector<bool> front = pareto_front(models);
   for (std::size_t k = 0; k < models.size(); ++k) h += model_row(models[k], front[k]);
@@ -287,12 +290,16 @@ std::string mean_brdf_picture(const fs::path& folder, std::size_t k, const Model
   save_png(folder, brdf_png,
            upscale_nearest(mean_brdf_image(c.mean_brdf, m.lights.size(), m.views.size(), m.format),
                            cell));
+  const float peak = *std::max_element(c.mean_brdf.begin(), c.mean_brdf.end());
   std::string h = "<div><h3>Mean BRDF of the tile (the paper's Fig. 2)</h3>";
-  h += grid_svg(brdf_png, m.lights, m.views, cell, {}, "", 0);
+  h += grid_svg(brdf_png, m.lights, m.views, cell, {},
+                grey_bar(0.0, double(peak), int(m.lights.size()) * cell,
+                         fmt::format("brdfbar{}", k + 1), hdr ? "value" : "levels"),
+                48);
   h += fmt::format(
       "<p class=\"note\">Rows: lights, columns: views, each ring from &phi; = 0. "
-      "Scaled so the brightest pair is white{}.</p></div>",
-      hdr ? ", sRGB-encoded" : "");
+      "Scaled so that the brightest value of any channel ({:.4g}{}) is full intensity{}.</p></div>",
+      peak, hdr ? "" : " levels", hdr ? ", sRGB-encoded (the bar is linear)" : "");
   return h;
 }
 
@@ -303,10 +310,16 @@ std::string model_section(const fs::path& folder, std::span<const ModelCompariso
   const ModelComparison& c = models[k];
   const ModelFrame& m = c.model->frame();
   const int f = upscale_for(std::max(m.width, m.height), 128);
+  const bool hdr = m.format == SampleFormat::kHdr;
   std::string h = fmt::format(
       "<section><h2>{}: original | model | 10 &times; |difference|</h2>"
+      "<p class=\"note\">10 &times; |difference|, per channel: <span class=\"ramp\"></span> "
+      "black: exact, white: {} or more off.</p>"
       "<div class=\"detail\"><div class=\"pairs\">",
-      escape(c.name));
+      escape(c.name),
+      hdr ? fmt::format("{:g} (a tenth of the data's peak, {:g})", c.quality.range / 10.0,
+                        c.quality.range)
+          : std::string("25.5 levels (of 0-255)"));
   std::vector<std::pair<std::size_t, std::size_t>> outline;
   for (const PicturedPair& p : c.pairs) {
     h += pictured_pair(folder, k, c, p, f);

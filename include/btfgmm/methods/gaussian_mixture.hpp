@@ -30,6 +30,7 @@ class GaussianMixture final : public Representation {
   std::vector<std::uint8_t> payload() const override;
   std::uint32_t file_flags() const override { return std::uint32_t(model_.precision); }
   std::vector<std::pair<std::string, std::string>> details() const override;
+  FactorEncoding encoding() const override;
 
  private:
   BtfModel model_;

@@ -31,7 +31,7 @@ class Lpca final : public MeasuredImages {
 
   std::size_t clusters() const { return clusters_; }
   std::size_t components() const { return components_; }
-  FactorEncoding encoding() const { return encoding_; }
+  FactorEncoding encoding() const override { return encoding_; }
   std::span<const std::uint32_t> cluster_of() const { return cluster_; }
   std::span<const float> means() const { return means_; }
   std::span<const float> basis() const { return basis_; }

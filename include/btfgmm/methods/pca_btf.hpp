@@ -21,7 +21,7 @@ class PcaBtf final : public MeasuredImages {
          std::vector<float> eigen_images, std::vector<float> weights);
 
   std::size_t components() const { return components_; }
-  FactorEncoding encoding() const { return encoding_; }
+  FactorEncoding encoding() const override { return encoding_; }
   std::span<const float> mean_image() const { return mean_; }
   std::span<const float> eigen_images() const { return eigen_; }
   std::span<const float> weights() const { return weights_; }

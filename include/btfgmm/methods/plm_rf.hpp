@@ -60,7 +60,7 @@ class PlmRf final : public MeasuredImages {
   float scale() const { return scale_; }
   std::span<const float> lobes() const { return lobes_; }
   std::span<const float> polynomials() const { return polynomials_; }
-  FactorEncoding encoding() const { return encoding_; }
+  FactorEncoding encoding() const override { return encoding_; }
 
   std::string_view method() const override;
   std::string size_text() const override;

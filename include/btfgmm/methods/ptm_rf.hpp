@@ -37,7 +37,7 @@ class PtmRf final : public MeasuredImages {
   static std::array<double, kCoefficients> basis(const Direction& light);
 
   std::span<const float> coefficients() const { return coefficients_; }
-  FactorEncoding encoding() const { return encoding_; }
+  FactorEncoding encoding() const override { return encoding_; }
 
   std::string_view method() const override;
   std::string size_text() const override { return "6 coefficients"; }

@@ -93,6 +93,8 @@ class Representation {
   // The method's part of the model file (model/model_file.hpp: after the method tag), and
   // the header flags it needs.
   virtual std::vector<std::uint8_t> payload() const = 0;
+  // How the payload stores its real values (the precision `fit --precision` chose).
+  virtual FactorEncoding encoding() const = 0;
   virtual std::uint32_t file_flags() const { return 0; }
   // Named facts for `info` and the report ("eigen-images", "16"), in display order.
   virtual std::vector<std::pair<std::string, std::string>> details() const { return {}; }
