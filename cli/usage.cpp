@@ -3,6 +3,8 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
+#include <string>
 #include <string_view>
 #include <vector>
 
@@ -44,7 +46,16 @@ std::vector<std::string> long_options(const CLI::App& command) {
 
 std::string mistyped_name(const CLI::App& app, int argc, const char* const* argv) {
   int at = 1;
-  while (at < argc && argv[at][0] == '-') ++at;  // the command's own flags (--help, --version)
+  const std::vector<std::string> top = long_options(app);  // --help, --version
+  const std::vector<std::string_view> top_views(top.begin(), top.end());
+  for (; at < argc && argv[at][0] == '-'; ++at) {
+    const std::string_view flag =
+        std::string_view(argv[at]).substr(0, std::string_view(argv[at]).find('='));
+    if (flag.size() > 2 && flag.substr(0, 2) == "--" &&
+        std::find(top.begin(), top.end(), flag) == top.end())
+      return fmt::format("unknown option '{}'{}; 'btfgmm --help' lists the options and commands",
+                         flag, did_you_mean(flag, top_views));
+  }
   if (at >= argc) return "";
   const CLI::App* command = find_command(app, argv[at]);
   if (!command) return unknown_command(app, argv[at]);

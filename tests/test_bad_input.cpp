@@ -493,6 +493,10 @@ TEST_F(BadInput, MistypedOptionOrCommand) {
   EXPECT_EQ(r.status, 2) << r.out;
   expect_refused(r, {"unknown command 'fitt' (did you mean 'fit'?)", "generate, info, fit"});
   expect_refused(run("info " + p("btf") + " --jsn"), {"did you mean '--json'?"});
+  r = run("--versoin");
+  EXPECT_EQ(r.status, 2) << r.out;
+  expect_refused(r, {"unknown option '--versoin' (did you mean '--version'?)",
+                     "'btfgmm --help' lists the options and commands"});
 }
 
 // ---- limits before allocation (the library) --------------------------------------------

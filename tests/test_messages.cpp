@@ -108,7 +108,8 @@ TEST(Messages, IdentifiesCommonFilesByTheirFirstBytes) {
     EXPECT_EQ(k->what, c.what);
   }
   // A btfgmm model, and bytes of no known kind, are none of these.
-  EXPECT_FALSE(identify_file(model_file_bytes("gm", 0, Provenance{}, bytes_of("", 64))).has_value());
+  EXPECT_FALSE(
+      identify_file(model_file_bytes("gm", 0, Provenance{}, bytes_of("", 64))).has_value());
   EXPECT_FALSE(identify_file(bytes_of("\x01\x02\x03\x00\xfe", 64)).has_value());
   EXPECT_FALSE(identify_file({}).has_value());
   EXPECT_EQ(unread_image_format_from_name("a.TIFF"), "TIFF");
@@ -133,6 +134,14 @@ TEST(Messages, AModelReaderSaysWhatTheFileIsAndWhatToDo) {
   EXPECT_NE(m.find("'photo.btfgmm' is a JPEG image, not a btfgmm model"), std::string::npos) << m;
   m = message("\x01\x02\x00", "junk.btfgmm");
   EXPECT_NE(m.find("does not start with the btfgmm magic bytes"), std::string::npos) << m;
+  // A checkpoint of an unfinished fit, given where a model is expected: named, and its resume.
+  m = message(
+      "\x89"
+      "BTFCKP\n\x02\x00\x00\x00",
+      "big.ckpt");
+  EXPECT_NE(m.find("'big.ckpt' is a btfgmm fit checkpoint, not a btfgmm model"), std::string::npos)
+      << m;
+  EXPECT_NE(m.find("continue it with 'btfgmm fit --resume big.ckpt'"), std::string::npos) << m;
 }
 
 TEST(Messages, AFileIsNamedFromItsFirstBytesBeforeItIsReadWhole) {

@@ -73,7 +73,9 @@ Error not_a_btf(const fs::path& path) {
       : kind->kind == C::kArchive ? "extract it and give the folder of images it holds"
       : kind->kind == C::kZip     ? "a zip is read when its name ends in .zip: rename it"
       : kind->kind == C::kImage   ? "one image is not a BTF: give the folder that holds the images"
-                                  : "";
+      : kind->kind == C::kCheckpoint
+          ? fmt::format("continue the fit it holds with 'btfgmm fit --resume {}'", path.string())
+          : "";
   if (fix.empty())
     return Error(Error::Kind::kArgument,
                  fmt::format("{} is a file; give a folder of BTF images or a Bonn .zip archive",

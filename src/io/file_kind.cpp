@@ -20,9 +20,13 @@ using C = FileKind::Class;
 
 // Magic numbers of the common formats a user may give by mistake (from each format's
 // specification; tar's "ustar" is at byte 257 of its first header).
-const std::array<Magic, 16>& magics() {
+const std::array<Magic, 17>& magics() {
   using namespace std::string_view_literals;
-  static const std::array<Magic, 16> m{{
+  static const std::array<Magic, 17> m{{
+      {0,
+       "\x89"
+       "BTFCKP\n"sv,
+       {C::kCheckpoint, "a btfgmm fit checkpoint"}},
       {0, "\x1f\x8b"sv, {C::kArchive, "a gzip archive"}},
       {0, "BZh"sv, {C::kArchive, "a bzip2 archive"}},
       {0,

@@ -127,7 +127,12 @@ void check_magic(std::span<const std::uint8_t> bytes, const std::string& name) {
                                       name)
       : kind->kind == C::kImage ? "a model is fitted to a folder of BTF images: btfgmm fit "
                                   "FOLDER -o model.btfgmm"
-                                : "give a .btfgmm file written by 'btfgmm fit'";
+      : kind->kind == C::kCheckpoint
+          ? fmt::format(
+                "it holds a fit that has not finished: continue it with 'btfgmm fit "
+                "--resume {}', which writes the model",
+                name)
+          : "give a .btfgmm file written by 'btfgmm fit'";
   throw Error(Error::Kind::kFormat,
               fmt::format("'{}' is {}, not a btfgmm model; {}", name, kind->what, fix));
 }

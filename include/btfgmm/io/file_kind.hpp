@@ -13,10 +13,11 @@ namespace btfgmm {
 
 struct FileKind {
   enum class Class {
-    kArchive,  // gzip, bzip2, xz, zstd, 7z, tar, RAR: to be extracted
-    kZip,      // a zip archive (a Bonn BTF is one)
-    kImage,    // one image (PNG, JPEG, OpenEXR, TIFF, BMP, ...)
-    kOther,    // a document or text
+    kArchive,     // gzip, bzip2, xz, zstd, 7z, tar, RAR: to be extracted
+    kZip,         // a zip archive (a Bonn BTF is one)
+    kImage,       // one image (PNG, JPEG, OpenEXR, TIFF, BMP, ...)
+    kCheckpoint,  // btfgmm's own checkpoint of an unfinished fit (model/checkpoint.hpp)
+    kOther,       // a document or text
   };
   Class kind = Class::kOther;
   std::string_view what;  // "a gzip archive", "a PNG image", "a text file"
