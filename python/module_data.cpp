@@ -232,7 +232,8 @@ void bind_fit(py::module_& m) {
         "called as it goes; Ctrl-C stops it (KeyboardInterrupt).");
   m.def("compare", &compare, py::arg("data"), py::arg("model"), py::kw_only(),
         py::arg("force") = false,
-        "Measures a model against the BTF it was fitted to (a path, or a Btf from read_btf): "
+        "Measures a model against the BTF it was fitted to (a path, or a Btf from read_btf: "
+        "its source; the model's tile is read from it): "
         "the dict `btfgmm compare --json` writes (RMSE, PSNR, SSIM, ratios, ...). Data other "
         "than the model's, by its provenance, is refused unless force=True.");
 }
