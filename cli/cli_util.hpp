@@ -21,22 +21,10 @@
 #include "btfgmm/btfgmm.hpp"
 #include "btfgmm/core/parse.hpp"
 #include "btfgmm/core/text.hpp"
+#include "btfgmm/measure/compare_data.hpp"
 #include "btfgmm/model/model.hpp"
 
 namespace btfgmm::cli {
-
-// "THETA,PHI" in degrees, theta in [0, 90].
-inline Direction parse_direction(const std::string& text, const std::string& option) {
-  const auto v = parse_numbers(text, option, 2, "30,45 (theta,phi in degrees)");
-  if (v[0] < 0.0 || v[0] > 90.0)
-    throw Error(Error::Kind::kArgument,
-                fmt::format("{} '{}': theta {} is off the upper hemisphere; give theta in [0, 90] "
-                            "degrees",
-                            option, text, v[0]));
-  double phi = std::fmod(v[1], 360.0);
-  if (phi < 0) phi += 360.0;
-  return {v[0], phi};
-}
 
 // "N" or "WxH".
 inline std::pair<int, int> parse_size(const std::string& text) {
@@ -122,19 +110,6 @@ inline void check_output_file(const std::filesystem::path& out, bool overwrite) 
   check_writable_folder(dir, out);
 }
 
-inline std::string describe_set(const btfgmm::DirectionSet& s) {
-  if (s == btfgmm::DirectionSet::ubo81()) return "81 (the UBO2003/UTIA set)";
-  double lo = 90, hi = 0;
-  std::set<double> thetas;
-  for (const auto& d : s) {
-    lo = std::min(lo, d.theta_deg);
-    hi = std::max(hi, d.theta_deg);
-    thetas.insert(d.theta_deg);
-  }
-  return fmt::format("{} (theta {:g}..{:g} deg, {} distinct elevations)", s.size(), lo, hi,
-                     thetas.size());
-}
-
 inline nlohmann::json set_json(const btfgmm::DirectionSet& s) {
   nlohmann::json a = nlohmann::json::array();
   for (const auto& d : s) a.push_back({d.theta_deg, d.phi_deg});
@@ -176,34 +151,6 @@ inline bool is_model_path(const std::filesystem::path& p) {
   std::error_code ec;
   if (!std::filesystem::is_regular_file(p, ec)) return false;
   return btfgmm::lower(p.extension().string()) != ".zip";
-}
-
-// How a Gaussian mixture was fitted, for --json output (info, compare).
-inline void put_fit_settings(nlohmann::json& j, const btfgmm::BtfModel& m) {
-  const auto& s = m.settings;
-  j["components"] = m.mixture.size();
-  j["components_requested"] = s.components;
-  j["components_dropped"] = s.dropped;
-  j["iterations"] = s.iterations;
-  j["max_iterations"] = s.max_iterations;
-  j["epsilon"] = s.epsilon;
-  j["seed"] = s.seed;
-  j["precision"] = m.precision == btfgmm::Precision::kF16 ? "f16" : "f32";
-}
-
-// Any model, for --json output (info, compare): its method, size, stored values and named
-// facts; for a Gaussian mixture also how it was fitted.
-inline void put_model_json(nlohmann::json& j, const btfgmm::Representation& r) {
-  j["method"] = std::string(r.method());
-  j["size"] = r.size_text();
-  j["parameters"] = r.parameter_count();
-  nlohmann::json details = nlohmann::json::object();
-  for (const auto& [k, v] : r.details()) details[k] = v;
-  j["details"] = details;
-  if (const auto* gm = dynamic_cast<const btfgmm::GaussianMixture*>(&r)) {
-    put_fit_settings(j, gm->model());
-    j["log_likelihood"] = gm->model().settings.log_likelihood;
-  }
 }
 
 // The lines `info` and `compare` print for a model's method, size and facts.

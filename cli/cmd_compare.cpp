@@ -12,6 +12,7 @@
 #include "btfgmm/btfgmm.hpp"
 #include "btfgmm/core/text.hpp"
 #include "btfgmm/io/files.hpp"
+#include "btfgmm/measure/compare_data.hpp"
 #include "btfgmm/measure/metrics.hpp"
 #include "btfgmm/measure/sweep.hpp"
 #include "btfgmm/model/model.hpp"
@@ -43,52 +44,6 @@ std::string pair_text(const ModelFrame& m, std::size_t image) {
   const Direction& v = m.views[image % nv];
   return fmt::format("light ({:g}, {:g}) view ({:g}, {:g})", l.theta_deg, l.phi_deg, v.theta_deg,
                      v.phi_deg);
-}
-
-nlohmann::json image_json(const ModelFrame& m, const BtfQuality& q, std::size_t image) {
-  const std::size_t nv = m.views.size();
-  const Direction& l = m.lights[image / nv];
-  const Direction& v = m.views[image % nv];
-  const ImageQuality& iq = q.images[image];
-  return {{"light", {l.theta_deg, l.phi_deg}},
-          {"view", {v.theta_deg, v.phi_deg}},
-          {"rmse", iq.rmse},
-          {"psnr_db", iq.psnr_db},
-          {"ssim", iq.ssim}};
-}
-
-nlohmann::json comparison_json(const std::string& btf, const ModelComparison& c) {
-  const ModelFrame& m = c.model->frame();
-  const BtfQuality& q = c.quality;
-  nlohmann::json j;
-  j["btf"] = btf;
-  j["model"] = c.name;
-  j["tile"] = {c.tile.x, c.tile.y, c.tile.width, c.tile.height};
-  j["lights"] = m.lights.size();
-  j["views"] = m.views.size();
-  j["bit_depth"] = to_string(m.format);
-  j["rmse"] = q.rmse;
-  j["psnr_db"] = q.psnr_db;  // +infinity (identical images) is written as null
-  j["ssim"] = q.ssim;
-  j["rmse_rgb"] = q.rmse_rgb;
-  j["psnr_db_rgb"] = q.psnr_db_rgb;
-  j["ssim_rgb"] = q.ssim_rgb;
-  j["data_range"] = q.range;
-  j["ssim_window"] = q.ssim_window;
-  j["worst_psnr"] = image_json(m, q, q.worst_psnr);
-  j["best_psnr"] = image_json(m, q, q.best_psnr);
-  j["worst_ssim"] = image_json(m, q, q.worst_ssim);
-  j["best_ssim"] = image_json(m, q, q.best_ssim);
-  j["mean_brdf_only"] = {{"rmse", c.mean_brdf_only.rmse},
-                         {"psnr_db", c.mean_brdf_only.psnr_db},
-                         {"ssim", c.mean_brdf_only.ssim}};
-  j["compression_ratio_paper"] = c.model->paper_ratio();
-  j["compression_ratio_file"] = c.model->file_ratio(c.file_bytes);
-  j["file_bytes"] = c.file_bytes;
-  put_model_json(j, *c.model);
-  j["decode_seconds"] = c.decode_seconds;
-  if (c.fit_seconds > 0) j["fit_seconds"] = c.fit_seconds;
-  return j;
 }
 
 std::string db(double v) {
@@ -180,32 +135,8 @@ void run_compare(const CompareOptions& o) {
                   fmt::format("model '{}' does not exist; give the path of a .btfgmm file written "
                               "by btfgmm fit",
                               path));
-    const ModelFrame& m = models.emplace_back(load_representation(path))->frame();
-    if (!(m.lights == info.lights) || !(m.views == info.views))
-      throw Error(
-          Error::Kind::kArgument,
-          fmt::format("{}: the model was fitted to {} lights and {} views of {}, but {} has {} "
-                      "lights and {} views{}; compare a model with the BTF it was fitted "
-                      "to",
-                      path, describe_set(m.lights), describe_set(m.views),
-                      describe_source(models.back()->provenance(), m.origin), o.btf,
-                      describe_set(info.lights), describe_set(info.views),
-                      m.lights.size() == info.lights.size() && m.views.size() == info.views.size()
-                          ? " (same counts, other directions)"
-                          : ""));
-    if ((m.format == SampleFormat::kHdr) != (info.format == SampleFormat::kHdr))
-      throw Error(Error::Kind::kArgument,
-                  fmt::format("{}: the model was fitted to {} data, {} holds {} data; compare a "
-                              "model with the BTF it was fitted to",
-                              path, to_string(m.format), o.btf, to_string(info.format)));
-    const Tile tile{m.origin.x, m.origin.y, m.width, m.height};
-    if (tile.x < 0 || tile.y < 0 || tile.x + tile.width > info.width ||
-        tile.y + tile.height > info.height)
-      throw Error(Error::Kind::kArgument,
-                  fmt::format("{}: the model's tile is {}x{} pixels at ({}, {}), outside the "
-                              "{}x{} images of {}; compare a model with the BTF it was fitted to",
-                              path, tile.width, tile.height, tile.x, tile.y, info.width,
-                              info.height, o.btf));
+    models.push_back(load_representation(path));
+    check_model_frame(*models.back(), path, info, o.btf);
   }
   // Then each model's tile of the data is the data it was fitted to, by its provenance.
   std::vector<DataMatch> matches;
@@ -230,8 +161,7 @@ void run_compare(const CompareOptions& o) {
 
   nlohmann::json all = nlohmann::json::array();
   for (std::size_t k = 0; k < results.size(); ++k) {
-    all.push_back(comparison_json(o.btf, results[k]));
-    all.back()["data_match"] = std::string(to_string(matches[k]));
+    all.push_back(comparison_json(o.btf, results[k], matches[k]));
   }
   if (o.json) {
     std::cout << json_text(results.size() == 1 ? all[0] : all);

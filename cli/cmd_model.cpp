@@ -15,6 +15,7 @@
 
 #include "btfgmm/btfgmm.hpp"
 #include "btfgmm/core/text.hpp"
+#include "btfgmm/methods/fit_options.hpp"
 #include "btfgmm/model/fit.hpp"
 #include "btfgmm/model/model.hpp"
 #include "btfgmm/model/model_file.hpp"
@@ -73,11 +74,19 @@ void refuse_options(const FitOptions& o, std::initializer_list<const char*> opti
                                                     count == 1 ? "it" : "them"));
 }
 
-btfgmm::Precision parse_precision(const std::string& text) {
-  if (text == "f32") return btfgmm::Precision::kF32;
-  if (text == "f16") return btfgmm::Precision::kF16;
-  throw Error(Error::Kind::kArgument,
-              fmt::format("--precision '{}': the Gaussian mixture stores f32 or f16", text));
+// The settings of the fit as the library takes them (btfgmm/methods/fit_options.hpp).
+btfgmm::FitOptions library_options(const FitOptions& o) {
+  btfgmm::FitOptions f;
+  f.method = o.method;
+  f.components = o.components;
+  f.clusters = o.clusters;
+  f.degree = o.degree;
+  f.iterations = o.iterations;
+  if (o.given.count("--epsilon")) f.epsilon = o.epsilon;
+  f.seed = o.seed;
+  f.threads = o.threads;
+  f.precision = o.precision;
+  return f;
 }
 
 // A new fit, as the options ask.
@@ -87,14 +96,7 @@ btfgmm::FitRequest new_fit_request(const FitOptions& o) {
                 "fit needs an input BTF and -o MODEL (or --resume CHECKPOINT to continue an "
                 "interrupted fit, or --continue MODEL --iterations N -o MODEL to go on with a "
                 "finished one)");
-  btfgmm::FitRequest r;
-  r.input = o.input;
-  r.output = o.out;
-  r.config.components = o.components ? o.components : 600;
-  r.config.seed = o.seed;
-  r.config.em.max_iterations = o.iterations ? o.iterations : 40;
-  r.config.em.epsilon = o.epsilon;
-  r.precision = parse_precision(o.precision.empty() ? "f32" : o.precision);
+  btfgmm::FitRequest r = btfgmm::mixture_fit_request(library_options(o), o.input, o.out);
   r.checkpoint = o.checkpoint;
   return r;
 }
@@ -216,30 +218,21 @@ void check_method_options(const FitOptions& o) {
 
 void run_method_fit(const FitOptions& o) {
   check_method_options(o);
-  const btfgmm::MethodInfo& method = btfgmm::find_method(o.method);
-  btfgmm::MethodSettings s;
-  s.components = o.components;
-  s.clusters = o.clusters;
-  s.degree = o.degree;
-  s.iterations = o.iterations;
-  s.seed = o.seed;
-  s.threads = o.threads;
-  // 8 bits a factor by default: at most 0.1 dB below f32 on generated tiles (docs/METHODS.md).
-  s.encoding = o.precision.empty() ? method.fit_encoding
-                                   : btfgmm::parse_factor_encoding(o.precision, "--precision");
+  const btfgmm::FitOptions options = library_options(o);
+  btfgmm::method_settings(options, btfgmm::find_method(o.method));  // checked before any work
   check_output_file(o.out, o.overwrite);
   const auto t0 = Clock::now();
-  const btfgmm::BtfSource src = btfgmm::BtfSource::open(o.input);
-  const btfgmm::Tile tile = o.tile.empty() ? btfgmm::Tile{0, 0, src.info().width, src.info().height}
-                                           : tile_option(src, o.tile, o.quiet);
-  const btfgmm::Btf btf = src.load(tile);
-  if (!o.quiet) print_loaded(btf, seconds_since(t0));
-  if (!o.quiet)
-    s.progress = [&](double fraction, std::string_view stage) {
+  auto src = std::make_shared<const btfgmm::BtfSource>(btfgmm::BtfSource::open(o.input));
+  const btfgmm::Tile tile = o.tile.empty() ? btfgmm::Tile{} : tile_option(*src, o.tile, o.quiet);
+  btfgmm::FitProgress progress;
+  if (!o.quiet) {
+    progress.started = [&](const btfgmm::Btf& btf) { print_loaded(btf, seconds_since(t0)); };
+    progress.progress = [&](double fraction, std::string_view stage) {
       fmt::print(stderr, "{} {:>5.1f}%  {}\n", o.method, 100.0 * fraction, stage);
     };
-  const std::unique_ptr<btfgmm::Representation> r = btfgmm::fit_and_record(
-      method, btf, s, btfgmm::fingerprint_of(btf, {o.input, src.info().width, src.info().height}));
+  }
+  const std::unique_ptr<btfgmm::Representation> r =
+      btfgmm::fit_representation(options, o.input, std::move(src), tile, progress);
   const double fit_seconds = r->provenance().fit.seconds;
   const std::uint64_t bytes = btfgmm::save_representation(*r, o.out);
   if (o.quiet) return;
@@ -266,11 +259,6 @@ std::optional<IterationLog> open_iteration_log(const FitOptions& o, const btfgmm
 
 void run_fit(const FitOptions& o) {
   if (o.method != btfgmm::kMixtureMethod) return run_method_fit(o);
-  if (o.clusters != 0 || o.degree != 0)
-    throw Error(Error::Kind::kArgument,
-                fmt::format("{} applies to {} only, not to the Gaussian mixture; leave it out",
-                            o.clusters ? "--clusters" : "--degree",
-                            o.clusters ? "--method lpca" : "--method plm-rf"));
   btfgmm::FitRequest r = fit_request(o);
   const bool resumed = r.resume && !r.resume->finished_model;
   check_output_file(r.output, o.overwrite || resumed);

@@ -15,6 +15,7 @@
 #include "btfgmm/core/error.hpp"
 #include "btfgmm/core/text.hpp"
 #include "btfgmm/measure/compare.hpp"
+#include "btfgmm/measure/compare_data.hpp"
 #include "btfgmm/model/provenance.hpp"
 
 namespace btfgmm::cli {
@@ -92,11 +93,7 @@ inline btfgmm::DataMatch enforce_data_check(const btfgmm::DataCheck& c, bool for
     if (!quiet) fmt::print(stderr, "note: {}\n", c.message);
     return c.match;
   }
-  if (!force)
-    throw Error(Error::Kind::kArgument,
-                fmt::format("{}; give the data the model was fitted to, or add --force to {} "
-                            "anyway",
-                            c.message, action));
+  btfgmm::refuse_other_data(c, force, action);
   fmt::print(stderr, "warning: {}; going on with the {} (--force)\n", c.message, action);
   return c.match;
 }

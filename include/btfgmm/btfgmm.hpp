@@ -30,6 +30,7 @@
 #include "btfgmm/model/predict.hpp"
 #include "btfgmm/model/samples.hpp"
 // methods: one interface for every representation (the mixture and the comparison methods)
+#include "btfgmm/methods/fit_options.hpp"
 #include "btfgmm/methods/gaussian_mixture.hpp"
 #include "btfgmm/methods/lpca.hpp"
 #include "btfgmm/methods/measured_images.hpp"
@@ -41,6 +42,7 @@
 #include "btfgmm/methods/representation.hpp"
 // measure: image quality, a model against its data, the rate-distortion sweep, seamless tiles
 #include "btfgmm/measure/compare.hpp"
+#include "btfgmm/measure/compare_data.hpp"
 #include "btfgmm/measure/metrics.hpp"
 #include "btfgmm/measure/sweep.hpp"
 #include "btfgmm/measure/tile.hpp"

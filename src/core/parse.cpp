@@ -33,4 +33,24 @@ std::vector<double> parse_numbers(const std::string& text, const std::string& op
   return out;
 }
 
+Direction hemisphere_direction(double theta, double phi, const std::string& option,
+                               const std::string& text) {
+  if (!std::isfinite(theta) || !std::isfinite(phi))
+    throw Error(Error::Kind::kArgument,
+                fmt::format("{} '{}': the angles must be finite numbers of degrees", option, text));
+  if (theta < 0.0 || theta > 90.0)
+    throw Error(Error::Kind::kArgument,
+                fmt::format("{} '{}': theta {} is off the upper hemisphere; give theta in [0, 90] "
+                            "degrees",
+                            option, text, theta));
+  double wrapped = std::fmod(phi, 360.0);
+  if (wrapped < 0) wrapped += 360.0;
+  return {theta, wrapped};
+}
+
+Direction parse_direction(const std::string& text, const std::string& option) {
+  const auto v = parse_numbers(text, option, 2, "30,45 (theta,phi in degrees)");
+  return hemisphere_direction(v[0], v[1], option, text);
+}
+
 }  // namespace btfgmm

@@ -139,14 +139,17 @@ EmStateCallback periodic_checkpoints(const FitRequest& r, const FitCheckpoint& j
   };
 }
 
-// Interrupted: the state goes to the checkpoint (output + ".ckpt" without one).
+// Interrupted: the state goes to the checkpoint (output + ".ckpt" without one; nowhere
+// without either).
 FitOutcome save_interrupted(const FitRequest& r, FitCheckpoint k, FitState state) {
   FitOutcome out;
   out.interrupted = true;
   out.iterations = state.result.iterations;
-  out.checkpoint = r.checkpoint.empty() ? r.output + ".ckpt" : r.checkpoint;
+  out.checkpoint = !r.checkpoint.empty() ? r.checkpoint
+                   : !r.output.empty()   ? r.output + ".ckpt"
+                                         : std::string();
   k.state = std::move(state);
-  save_checkpoint(k, out.checkpoint);
+  if (!out.checkpoint.empty()) save_checkpoint(k, out.checkpoint);
   return out;
 }
 
@@ -162,17 +165,13 @@ void record_provenance(const FitRequest& r, const FitCheckpoint& job, DataFinger
 }
 
 // Finished: the model file, then the checkpoint goes (the model holds the fit's result).
-FitOutcome save_finished(const FitRequest& r, BtfModel model) {
-  model.precision = r.precision;
-  save_model(model, r.output);
+void save_finished(const FitRequest& r, FitOutcome& out) {
+  save_model(out.model, r.output);
   if (!r.checkpoint.empty()) {
     std::error_code ec;
     fs::remove(r.checkpoint, ec);
   }
-  FitOutcome out;
   out.file_bytes = fs::file_size(r.output);
-  out.model = std::move(model);
-  return out;
 }
 
 }  // namespace
@@ -259,7 +258,7 @@ FitRequest continue_request(const fs::path& path, const std::string& input, int 
   return r;
 }
 
-FitOutcome run_fit(const FitRequest& request, const FitObserver& observer) {
+FitOutcome fit_in_memory(const FitRequest& request, const FitObserver& observer) {
   DataSource source;
   const Btf btf = load_tile(request, source);
   const DataFingerprint data = fingerprint_of(btf, std::move(source));
@@ -277,7 +276,16 @@ FitOutcome run_fit(const FitRequest& request, const FitObserver& observer) {
                              periodic_checkpoints(request, job), &state);
   if (state.result.interrupted) return save_interrupted(request, job, std::move(state));
   record_provenance(request, job, data, model);
-  return save_finished(request, std::move(model));
+  model.precision = request.precision;
+  FitOutcome out;
+  out.model = std::move(model);
+  return out;
+}
+
+FitOutcome run_fit(const FitRequest& request, const FitObserver& observer) {
+  FitOutcome out = fit_in_memory(request, observer);
+  if (!out.interrupted) save_finished(request, out);
+  return out;
 }
 
 }  // namespace btfgmm

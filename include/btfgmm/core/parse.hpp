@@ -6,11 +6,21 @@
 #include <string>
 #include <vector>
 
+#include "btfgmm/core/directions.hpp"
+
 namespace btfgmm {
 
 // Exactly `count` finite numbers separated by commas. Throws Error(kArgument) naming `option`
 // and the value, with `example` showing the form (e.g. "30,45 (theta,phi in degrees)").
 std::vector<double> parse_numbers(const std::string& text, const std::string& option,
                                   std::size_t count, const std::string& example);
+
+// A direction on the upper hemisphere from THETA,PHI in degrees: theta in [0, 90], phi any
+// finite angle, wrapped into [0, 360). Throws Error(kArgument) naming `option` and `text`
+// (the value as given) for a theta off the hemisphere or a number that is not finite.
+Direction hemisphere_direction(double theta, double phi, const std::string& option,
+                               const std::string& text);
+// "THETA,PHI" in degrees, as hemisphere_direction checks them.
+Direction parse_direction(const std::string& text, const std::string& option);
 
 }  // namespace btfgmm

@@ -100,6 +100,12 @@ struct FitOutcome {
   std::uint64_t file_bytes = 0;
 };
 
+// run_fit but for the model file: the finished model (its provenance recorded, its precision
+// the request's) is returned in memory (file_bytes 0) and the request's output is not
+// written; a checkpoint is kept as run_fit keeps it (interrupted without a checkpoint or an
+// output, the state is saved nowhere and the outcome's checkpoint is empty).
+FitOutcome fit_in_memory(const FitRequest& request, const FitObserver& observer = {});
+
 // Loads the request's tile, checks a resume against it (Error(kArgument) when the data or
 // the settings are not the checkpoint's or the model's), fits (fit_model) with checkpoints as
 // requested, and writes the model, or on an interruption the checkpoint. Throws Error as the

@@ -1,0 +1,63 @@
+// The settings of a fit of any method as `btfgmm fit` takes them, and the fit they ask for: one
+// place for the defaults (the mixture's M = 600, 40 iterations, f32; each method's own) that
+// the command and the Python module share, so that both fit the same model.
+#pragma once
+
+#include <atomic>
+#include <cstddef>
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <optional>
+#include <string>
+#include <string_view>
+
+#include "btfgmm/core/btf.hpp"
+#include "btfgmm/io/dataset.hpp"
+#include "btfgmm/methods/registry.hpp"
+#include "btfgmm/methods/representation.hpp"
+#include "btfgmm/model/fit.hpp"
+
+namespace btfgmm {
+
+// A size or count left at 0 and a text left empty take the method's default.
+struct FitOptions {
+  std::string method = "gm";
+  std::size_t components = 0, clusters = 0, degree = 0;
+  int iterations = 0;
+  std::optional<double> epsilon;  // the mixture's EM only (default 0: all iterations)
+  std::uint64_t seed = 1;
+  int threads = 0;        // 0: OpenMP's default; the model does not depend on it
+  std::string precision;  // "f32", "f16" (gm, default f32) or "q8" (others, default q8)
+};
+
+// The mixture's fit job from `input` to `output` (the tile, checkpoints and the stop flag are
+// the caller's to set): M = 600 and 40 iterations unless given. Throws Error(kArgument) for a
+// precision other than f32 or f16, and for clusters or degree (other methods' sizes).
+FitRequest mixture_fit_request(const FitOptions& o, const std::string& input,
+                               const std::string& output);
+
+// Another method's settings: the sizes as given, the method's own storage unless a precision
+// is given. Throws Error(kArgument) for an epsilon (the mixture's EM alone has one) and a
+// precision that does not parse.
+MethodSettings method_settings(const FitOptions& o, const MethodInfo& method);
+
+// What a fit tells as it goes (the library prints nothing); any member may be empty.
+struct FitProgress {
+  std::function<void(const Btf& tile)> started;        // the tile is in memory; the fit starts
+  std::function<void(const EmProgress& p)> iteration;  // the mixture: after each EM iteration
+  std::function<void(double fraction, std::string_view stage)> progress;  // the other methods
+  const std::atomic<bool>* stop = nullptr;  // set: the fit stops (Error(kArgument), or null)
+};
+
+// Fits `o.method` to `tile` (empty: the whole image) of `source`, opened from `input`, and
+// records the model's provenance as `btfgmm fit` does: the same data, options and seed give
+// the model `btfgmm fit` writes, the provenance's times aside (docs/FORMAT.md). The mixture's
+// fit stopped by `progress.stop` returns null. Throws Error as the options, the loading and
+// the fit do.
+std::unique_ptr<Representation> fit_representation(const FitOptions& o, const std::string& input,
+                                                   std::shared_ptr<const BtfSource> source,
+                                                   const Tile& tile,
+                                                   const FitProgress& progress = {});
+
+}  // namespace btfgmm

@@ -1,0 +1,241 @@
+// btfgmm.read_btf, btfgmm.fit and btfgmm.compare: data sets on disk, fitted and measured as
+// `btfgmm fit` and `btfgmm compare` do (the library's fit_representation, check_model_frame,
+// check_fitted_data, compare_model and comparison_json).
+#include <pybind11/numpy.h>
+#include <pybind11/pybind11.h>
+#include <pybind11/stl.h>
+
+#include <atomic>
+#include <filesystem>
+#include <optional>
+#include <string>
+#include <utility>
+
+#include "module.hpp"
+
+namespace btfgmm::python {
+namespace {
+
+// A tile given as None (the whole image), "X,Y,W,H" or "auto:WxH" (as `fit --tile`), or a
+// tuple (x, y, w, h).
+std::string tile_text(const py::object& tile) {
+  if (tile.is_none()) return "";
+  if (py::isinstance<py::str>(tile)) return tile.cast<std::string>();
+  try {
+    const auto t = tile.cast<std::tuple<int, int, int, int>>();
+    return fmt::format("{},{},{},{}", std::get<0>(t), std::get<1>(t), std::get<2>(t),
+                       std::get<3>(t));
+  } catch (const py::cast_error&) {
+    throw Error(Error::Kind::kArgument,
+                "tile: give None (the whole image), (x, y, w, h), \"X,Y,W,H\" or \"auto:WxH\"");
+  }
+}
+
+// The data set of a BtfData or a path; with a BtfData, its tile.
+struct DataArg {
+  std::string path;
+  std::optional<Tile> tile;
+};
+
+DataArg data_arg(const py::object& data, const char* what) {
+  if (py::isinstance<BtfData>(data)) {
+    const BtfData& d = data.cast<const BtfData&>();
+    return {d.source, d.btf->origin()};
+  }
+  return {path_of(data, what), std::nullopt};
+}
+
+BtfData read_btf(const py::object& path, const py::object& tile) {
+  BtfData d;
+  d.source = path_of(path, "read_btf");
+  const std::string text = tile_text(tile);
+  py::gil_scoped_release release;
+  const BtfSource src = BtfSource::open(d.source);
+  const Tile t = choose_tile(src, text, "tile").tile;
+  d.btf = std::make_shared<Btf>(src.load(t));
+  d.image_width = src.info().width;
+  d.image_height = src.info().height;
+  return d;
+}
+
+// The tile's values, light-major: n_lights x n_views x H x W x 3 float32, sharing its memory.
+py::array_t<float> values(const BtfData& d) {
+  const Btf& b = *d.btf;
+  py::capsule owner(new std::shared_ptr<Btf>(d.btf),
+                    [](void* p) { delete static_cast<std::shared_ptr<Btf>*>(p); });
+  return py::array_t<float>({py::ssize_t(b.lights().size()), py::ssize_t(b.views().size()),
+                             py::ssize_t(b.height()), py::ssize_t(b.width()), py::ssize_t(3)},
+                            const_cast<float*>(b.data().data()), owner);
+}
+
+// numpy's protocol (np.asarray(btf, dtype)); numpy's further arguments (copy) are numpy's.
+py::object as_array(const BtfData& d, const py::object& dtype, const py::kwargs&) {
+  py::object a = values(d);
+  return dtype.is_none() ? a : a.attr("astype")(dtype);
+}
+
+void bind_btf(py::module_& m) {
+  py::class_<BtfData>(m, "Btf",
+                      "A BTF tile read by read_btf: values (n_lights x n_views x H x W x 3 "
+                      "float32; 8- and 16-bit data as 0-255 levels, EXR as linear values), its "
+                      "direction sets and where it was read from.")
+      .def_property_readonly("values", &values)
+      .def_property_readonly("lights",
+                             [](const BtfData& d) { return directions_array(d.btf->lights()); })
+      .def_property_readonly("views",
+                             [](const BtfData& d) { return directions_array(d.btf->views()); })
+      .def_property_readonly("origin",
+                             [](const BtfData& d) {
+                               const Tile& t = d.btf->origin();
+                               return py::make_tuple(t.x, t.y, t.width, t.height);
+                             })
+      .def_property_readonly("format", [](const BtfData& d) { return to_string(d.btf->format()); })
+      .def_property_readonly("source", [](const BtfData& d) { return d.source; })
+      .def_property_readonly(
+          "image_size",
+          [](const BtfData& d) { return py::make_tuple(d.image_width, d.image_height); })
+      .def("__array__", &as_array, py::arg("dtype") = py::none())
+      .def("__repr__", [](const BtfData& d) {
+        const Btf& b = *d.btf;
+        return fmt::format("<btfgmm.Btf '{}': {}x{} tile at ({}, {}), {} lights x {} views, {}>",
+                           d.source, b.width(), b.height(), b.origin().x, b.origin().y,
+                           b.lights().size(), b.views().size(), to_string(b.format()));
+      });
+  m.def("read_btf", &read_btf, py::arg("path"), py::arg("tile") = py::none(),
+        "Reads a BTF (a folder or Bonn .zip, as `btfgmm info` reads it), its whole images or a "
+        "tile: None, (x, y, w, h), \"X,Y,W,H\" or \"auto:WxH\" (the most seamless tile).");
+}
+
+}  // namespace
+
+void bind_data(py::module_& m) {
+  bind_btf(m);
+}
+
+// ---- fit and compare ------------------------------------------------------------------------
+
+namespace {
+
+// Ctrl-C and the caller's progress function during a fit that runs without the GIL: checked
+// between its steps, with the GIL taken; a Python error (KeyboardInterrupt, or one the
+// progress function raises) stops the fit and is raised once it has stopped.
+class FitWatch {
+ public:
+  explicit FitWatch(py::object progress) : progress_(std::move(progress)) {}
+  ~FitWatch() {
+    Py_XDECREF(type_);
+    Py_XDECREF(value_);
+    Py_XDECREF(trace_);
+  }
+  void poll(double fraction, std::string_view stage) {
+    py::gil_scoped_acquire gil;
+    if (stop_) return;
+    try {
+      if (!progress_.is_none()) progress_(fraction, std::string(stage));
+      if (PyErr_CheckSignals() != 0) throw py::error_already_set();
+    } catch (py::error_already_set& e) {
+      e.restore();
+      PyErr_Fetch(&type_, &value_, &trace_);
+      stop_ = true;
+    }
+  }
+  const std::atomic<bool>* stop() const { return &stop_; }
+  // With the GIL held: the Python error that stopped the fit, raised.
+  void raise_if_stopped() {
+    if (!type_) return;
+    PyErr_Restore(type_, value_, trace_);
+    type_ = value_ = trace_ = nullptr;
+    throw py::error_already_set();
+  }
+
+ private:
+  py::object progress_;
+  std::atomic<bool> stop_{false};
+  PyObject *type_ = nullptr, *value_ = nullptr, *trace_ = nullptr;
+};
+
+Model fit(const py::object& data, const std::string& method, const py::object& tile,
+          std::size_t components, std::size_t clusters, std::size_t degree, int iterations,
+          std::optional<double> epsilon, std::uint64_t seed, int threads,
+          std::optional<std::string> precision, const py::object& progress) {
+  const DataArg d = data_arg(data, "fit");
+  if (d.tile && !tile.is_none())
+    throw Error(Error::Kind::kArgument,
+                "fit: a Btf from read_btf is fitted on its own tile; give its path to fit another "
+                "tile");
+  FitOptions o;
+  o.method = method;
+  o.components = components;
+  o.clusters = clusters;
+  o.degree = degree;
+  o.iterations = iterations;
+  o.epsilon = epsilon;
+  o.seed = seed;
+  o.threads = threads;
+  o.precision = precision.value_or("");
+  const std::string text = tile_text(tile);
+  FitWatch watch(progress);
+  FitProgress p;
+  p.iteration = [&](const EmProgress& e) {
+    watch.poll(double(e.iteration) / double(e.max_iterations), "EM");
+  };
+  p.progress = [&](double fraction, std::string_view stage) { watch.poll(fraction, stage); };
+  p.stop = watch.stop();
+  std::unique_ptr<Representation> r;
+  try {
+    py::gil_scoped_release release;
+    auto src = std::make_shared<const BtfSource>(BtfSource::open(d.path));
+    const Tile t = d.tile ? *d.tile : choose_tile(*src, text, "tile").tile;
+    r = fit_representation(o, d.path, std::move(src), t, p);
+  } catch (const Error&) {
+    watch.raise_if_stopped();  // a method's fit stops by throwing
+    throw;
+  }
+  watch.raise_if_stopped();
+  if (!r) throw Error(Error::Kind::kArgument, "fit: the fit was stopped");
+  Model m;
+  m.rep = std::move(r);
+  return m;
+}
+
+py::object compare(const py::object& data, const Model& model, bool force) {
+  const DataArg d = data_arg(data, "compare");
+  const std::string name = model.path.empty() ? "(a model not saved)" : model.path;
+  const std::uint64_t bytes = model.bytes();
+  nlohmann::json j;
+  {
+    py::gil_scoped_release release;
+    const BtfSource src = BtfSource::open(d.path);
+    const BtfInfo& info = src.info();
+    check_model_frame(*model.rep, name, info, d.path);
+    const ModelFrame& f = model.rep->frame();
+    const Btf tile = src.load({f.origin.x, f.origin.y, f.width, f.height});
+    const DataCheck check =
+        check_fitted_data(*model.rep, name, tile, {d.path, info.width, info.height});
+    refuse_other_data(check, force, "compare");
+    j = comparison_json(d.path, compare_model(tile, model.rep, name, bytes), check.match);
+  }
+  return to_python(j);
+}
+
+}  // namespace
+
+void bind_fit(py::module_& m) {
+  m.def("fit", &fit, py::arg("data"), py::kw_only(), py::arg("method") = "gm",
+        py::arg("tile") = py::none(), py::arg("components") = 0, py::arg("clusters") = 0,
+        py::arg("degree") = 0, py::arg("iterations") = 0, py::arg("epsilon") = py::none(),
+        py::arg("seed") = 1, py::arg("threads") = 0, py::arg("precision") = py::none(),
+        py::arg("progress") = py::none(),
+        "Fits a model to a BTF (a path, or a Btf from read_btf: its tile) with the options "
+        "and defaults of `btfgmm fit` (0 or None: the method's default); the same data, "
+        "options and seed give the model `btfgmm fit` writes. progress(fraction, stage) is "
+        "called as it goes; Ctrl-C stops it (KeyboardInterrupt).");
+  m.def("compare", &compare, py::arg("data"), py::arg("model"), py::kw_only(),
+        py::arg("force") = false,
+        "Measures a model against the BTF it was fitted to (a path, or a Btf from read_btf: "
+        "its source; the model's tile is read from it): "
+        "the dict `btfgmm compare --json` writes (RMSE, PSNR, SSIM, ratios, ...). Data other "
+        "than the model's, by its provenance, is refused unless force=True.");
+}
+
+}  // namespace btfgmm::python

@@ -1,0 +1,225 @@
+"""The Python module against the btfgmm command: the same models, values, images and metrics.
+
+Run by CTest (run_pytest.py), which puts the built module on sys.path and names the built
+command in BTFGMM_CLI. The data is tiny: an 8 x 8 generated BTF of 11 lights x 6 views.
+"""
+import json
+import os
+import struct
+import subprocess
+
+import numpy as np
+import pytest
+
+import btfgmm
+
+CLI = os.environ.get("BTFGMM_CLI", "btfgmm")
+SETS = ["--lights", "rings:0/1,30/4,60/6", "--views", "rings:0/1,45/5"]
+
+
+def cli(*args):
+    """The command's stdout; a failure shows its stderr."""
+    r = subprocess.run([CLI, *map(str, args)], capture_output=True, text=True)
+    assert r.returncode == 0, f"btfgmm {' '.join(map(str, args))}: {r.stderr}"
+    return r.stdout
+
+
+@pytest.fixture(scope="module")
+def work(tmp_path_factory):
+    d = tmp_path_factory.mktemp("btfgmm")
+    btf = str(d / "btf")
+    cli("generate", "--material", "knit", "--size", 8, "--seed", 3, *SETS, "-q", "-o", btf)
+    gm = str(d / "cli-gm.btfgmm")
+    cli("fit", btf, "--tile", "0,0,6,6", "-M", 5, "--iterations", 3, "--seed", 2, "--threads", 2,
+        "-q", "-o", gm)
+    pca = str(d / "cli-pca.btfgmm")
+    cli("fit", btf, "--tile", "1,2,6,5", "--method", "pca-btf", "--components", 3,
+        "--threads", 2, "-q", "-o", pca)
+    return {"dir": d, "btf": btf, "gm": gm, "pca": pca}
+
+
+def random_queries(rng, n):
+    q = np.empty((n, 6))
+    q[:, 0:2] = rng.uniform(-4.0, 12.0, (n, 2))  # the tile repeats
+    q[:, 2] = rng.uniform(0.0, 90.0, n)
+    q[:, 3] = rng.uniform(-180.0, 540.0, n)  # wrapped into [0, 360) by both
+    q[:, 4] = rng.uniform(0.0, 90.0, n)
+    q[:, 5] = rng.uniform(0.0, 360.0, n)
+    return q
+
+
+@pytest.mark.parametrize("which", ["gm", "pca"])
+def test_eval_equals_the_command(work, which):
+    model = btfgmm.load(work[which])
+    q = random_queries(np.random.default_rng(11), 4)
+    got = model.eval(q)
+    assert got.shape == (4, 3) and got.dtype == np.float32
+    for row, rgb in zip(q, got):
+        j = json.loads(cli("eval", work[which], "--json", "--x", repr(row[0]), "--y",
+                           repr(row[1]), "--light", f"{row[2]!r},{row[3]!r}", "--view",
+                           f"{row[4]!r},{row[5]!r}"))
+        # The command's floats, printed in full by its JSON, are the module's.
+        np.testing.assert_allclose(rgb, np.float32(j["rgb"]), rtol=1e-6, atol=0)
+    assert np.all(got > 0)  # a knit under these lights: no black pixel
+    one = model.eval(q[0])  # one query, one RGB
+    assert one.shape == (3,) and np.array_equal(one, got[0])
+
+
+def quantise(v):
+    """As the command writes 8-bit images: rounded half away from zero, clamped to 0..255."""
+    v = np.asarray(v, dtype=np.float64)
+    return np.where(v >= 0.0, np.floor(np.minimum(v, 255.0) + 0.5), 0.0)
+
+
+@pytest.mark.parametrize("which", ["gm", "pca"])
+def test_decode_equals_the_command_png(work, which):
+    out = work["dir"] / f"decoded-{which}"
+    cli("decode", work[which], "--light", "30,45", "--view", "20,100", "--size", "10x7", "-o",
+        out)
+    png = btfgmm.read_btf(out)
+    assert png.values.shape == (1, 1, 7, 10, 3)
+    np.testing.assert_array_equal(png.lights, [[30.0, 45.0]])
+    image = btfgmm.load(work[which]).decode((30, 45), (20, 100), size=(10, 7))
+    assert image.shape == (7, 10, 3) and image.dtype == np.float32
+    assert np.array_equal(quantise(image), png.values[0, 0])
+    assert np.ptp(png.values) > 10  # a picture, not a flat colour
+
+
+def provenance_times(data):
+    """The byte ranges of a model file that depend on when and how fast it was fitted
+    (docs/FORMAT.md, "Provenance"): the fit's time, each EM iteration's time, and the CRC
+    over them. Parsed field by field; the section must be consumed exactly."""
+    u32 = lambda at: struct.unpack_from("<I", data, at)[0]
+    at = 24
+    at += 4 + u32(at)  # the method tag
+    size, at = u32(at), at + 4
+    end = at + size
+    at += 4 + u32(at)  # source
+    at += 4 + 4 + 8  # image size, content hash
+    times = [(at, at + 8)]  # the fit's seconds
+    at += 8 + 4  # ... and runs
+    count, at = u32(at), at + 4
+    for _ in range(count):  # the settings, (name, value) pairs
+        at += 4 + u32(at)
+        at += 4 + u32(at)
+    iterations, at = u32(at), at + 4
+    for _ in range(iterations):  # L, time, components
+        times.append((at + 8, at + 16))
+        at += 20
+    assert at == end, "the provenance section was not parsed exactly"
+    times.append((len(data) - 4, len(data)))  # the CRC
+    return times
+
+
+def without_times(path):
+    data = bytearray(open(path, "rb").read())
+    for a, b in provenance_times(data):
+        data[a:b] = bytes(b - a)
+    return bytes(data)
+
+
+def test_fit_equals_the_command_byte_for_byte(work, tmp_path):
+    model = btfgmm.fit(work["btf"], tile=(0, 0, 6, 6), components=5, iterations=3, seed=2,
+                       threads=2)
+    assert model.method == "gm" and model.size == "M = 5"
+    out = tmp_path / "py-gm.btfgmm"
+    assert model.save(out) == os.path.getsize(out)
+    a, b = open(out, "rb").read(), open(work["gm"], "rb").read()
+    assert len(a) == len(b)
+    # Only the times (and so the CRC) may differ: the same data, options and seed give the
+    # same parameters, settings and EM log, and the same source name.
+    assert without_times(out) == without_times(work["gm"])
+    assert len(provenance_times(a)) == 3 + 2  # the fit's time, 3 iterations, the CRC
+    p = model.provenance
+    assert p["source"] == work["btf"] and p["settings"]["threads"] == "2"
+    assert p["settings"]["components"] == "5" and len(p["iterations"]) == 3
+
+
+def test_fit_of_another_method_equals_the_command(work, tmp_path):
+    data = btfgmm.read_btf(work["btf"], tile="1,2,6,5")  # a Btf fits on its own tile
+    model = btfgmm.fit(data, method="pca-btf", components=3, threads=2)
+    out = tmp_path / "py-pca.btfgmm"
+    model.save(out)
+    assert without_times(out) == without_times(work["pca"])
+    assert model.method == "pca-btf" and model.parameters == btfgmm.load(work["pca"]).parameters
+
+
+def test_compare_equals_the_command_json(work):
+    for which in ("gm", "pca"):
+        got = btfgmm.compare(work["btf"], btfgmm.load(work[which]))
+        want = json.loads(cli("compare", work["btf"], work[which], "--json", "-q"))
+        for d in (got, want):
+            del d["decode_seconds"]  # the only time measured here
+        assert got == want
+        assert 10 < got["psnr_db"] < 60 and got["data_match"] == "same"
+
+
+def test_model_properties(work):
+    model = btfgmm.load(work["gm"])
+    info = json.loads(cli("info", work["gm"], "--json"))
+    assert model.method == "gm" and model.size == "M = 5"
+    assert model.parameters == info["parameters"]
+    assert model.file_bytes == os.path.getsize(work["gm"])
+    assert model.paper_ratio == pytest.approx(info["compression_ratio_paper"], rel=1e-12)
+    assert model.file_ratio == pytest.approx(info["compression_ratio_file"], rel=1e-12)
+    f = model.frame
+    assert (f["width"], f["height"], f["origin"]) == (6, 6, (0, 0, 6, 6))
+    assert f["lights"].shape == (11, 2) and f["views"].shape == (6, 2)
+    data = json.loads(cli("info", work["btf"], "--json"))
+    np.testing.assert_array_equal(f["lights"], data["light_directions"])
+    np.testing.assert_array_equal(f["views"], data["view_directions"])
+    assert model.details["components_requested"] == 5
+
+
+def test_read_btf(work):
+    whole = btfgmm.read_btf(work["btf"])
+    assert whole.values.shape == (11, 6, 8, 8, 3) and whole.values.dtype == np.float32
+    assert whole.image_size == (8, 8) and whole.format == "8-bit"
+    assert np.array_equal(whole.values, np.round(whole.values))  # 8-bit levels, exactly
+    tile = btfgmm.read_btf(work["btf"], tile=(2, 1, 4, 3))
+    assert tile.origin == (2, 1, 4, 3)
+    assert np.array_equal(tile.values, whole.values[:, :, 1:4, 2:6])
+    assert np.array_equal(np.asarray(tile), tile.values)
+    assert np.asarray(tile, dtype=np.float64).dtype == np.float64
+    assert tile.lights[0].tolist() == [0.0, 0.0] and tile.views.shape == (6, 2)
+
+
+def test_errors_are_exceptions_with_the_library_messages(work, tmp_path):
+    with pytest.raises(OSError) as e:
+        btfgmm.load(tmp_path / "missing.btfgmm")
+    assert isinstance(e.value, btfgmm.Error) and "missing.btfgmm" in str(e.value)
+    text = tmp_path / "notes.btfgmm"
+    text.write_text("not a model\n")
+    with pytest.raises(btfgmm.FormatError, match="notes.btfgmm"):
+        btfgmm.load(text)
+    with pytest.raises(btfgmm.Error):
+        btfgmm.read_btf(tmp_path / "nothing-here")
+    model = btfgmm.load(work["gm"])
+    with pytest.raises(ValueError, match=r"N x 6 array.*shape \(3, 5\)"):
+        model.eval(np.zeros((3, 5)))
+    with pytest.raises(ValueError, match=r"query 1: light .*off the upper hemisphere"):
+        model.eval([[0, 0, 30, 0, 0, 0], [0, 0, 95, 0, 0, 0]])
+    with pytest.raises(btfgmm.ArgumentError, match="size"):
+        model.decode((30, 45), (0, 0), size=0)
+    with pytest.raises(btfgmm.ArgumentError, match="did you mean 'gm'"):
+        btfgmm.fit(work["btf"], method="gmm")
+    with pytest.raises(ValueError, match="--epsilon cannot apply to --method pca-btf"):
+        btfgmm.fit(work["btf"], method="pca-btf", epsilon=0.01)
+    with pytest.raises(ValueError, match="exists; give a new name or pass overwrite=True"):
+        model.save(work["pca"])
+    with pytest.raises(TypeError):
+        btfgmm.fit(work["btf"], componnets=5)  # a misspelt option is no silent default
+
+
+def test_progress_and_stopping_a_fit(work):
+    calls = []
+
+    def progress(fraction, stage):
+        calls.append((fraction, stage))
+        if len(calls) == 2:
+            raise KeyboardInterrupt  # as Ctrl-C would: the fit stops after this iteration
+
+    with pytest.raises(KeyboardInterrupt):
+        btfgmm.fit(work["btf"], tile=(0, 0, 6, 6), components=5, iterations=30, seed=2,
+                   progress=progress)
+    assert calls == [(1 / 30, "EM"), (2 / 30, "EM")]

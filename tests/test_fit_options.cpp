@@ -1,0 +1,137 @@
+// The fit's options and defaults in the library (methods/fit_options.hpp), shared by the
+// command and the Python module, and the checks of a model against data on disk
+// (measure/compare_data.hpp): fit_representation fits what run_fit writes.
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <filesystem>
+#include <string>
+
+#include "btfgmm/btfgmm.hpp"
+#include "test_util.hpp"
+
+namespace btfgmm {
+namespace {
+
+namespace fs = std::filesystem;
+
+class FitOptionsTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = fs::temp_directory_path() / ("btfgmm_fit_options_" + std::to_string(::getpid()));
+    fs::remove_all(dir_);
+    GenerateConfig g;
+    g.size = 8;
+    g.lights = DirectionSet::parse("rings:0/1,30/4,60/6");
+    g.views = DirectionSet::parse("rings:0/1,45/5");
+    write_utia(generate(g), dir_ / "btf");
+  }
+  void TearDown() override { fs::remove_all(dir_); }
+  std::string p(const std::string& name) const { return (dir_ / name).string(); }
+  fs::path dir_;
+};
+
+// Everything a file holds but the provenance's times: the payload, the data and settings
+// recorded, and the EM log's L and components.
+void expect_same_but_times(const Representation& a, const Representation& b) {
+  EXPECT_EQ(a.payload(), b.payload());
+  const Provenance &pa = a.provenance(), &pb = b.provenance();
+  EXPECT_TRUE(pa.recorded && pb.recorded);
+  EXPECT_EQ(pa.data.source.name, pb.data.source.name);
+  EXPECT_EQ(pa.data.content_hash, pb.data.content_hash);
+  EXPECT_EQ(pa.fit.settings, pb.fit.settings);
+  ASSERT_EQ(pa.fit.iterations.size(), pb.fit.iterations.size());
+  for (std::size_t i = 0; i < pa.fit.iterations.size(); ++i) {
+    EXPECT_EQ(pa.fit.iterations[i].log_likelihood, pb.fit.iterations[i].log_likelihood);
+    EXPECT_EQ(pa.fit.iterations[i].components, pb.fit.iterations[i].components);
+  }
+}
+
+TEST_F(FitOptionsTest, MixtureFittedInMemoryIsTheModelRunFitWrites) {
+  FitOptions o;
+  o.components = 5;
+  o.iterations = 3;
+  o.seed = 2;
+  o.threads = 1;
+  FitRequest r = mixture_fit_request(o, p("btf"), p("m.btfgmm"));
+  r.tile = {1, 0, 6, 5};
+  run_fit(r);
+  const auto written = load_representation(p("m.btfgmm"));
+  const auto in_memory = fit_representation(o, p("btf"), nullptr, {1, 0, 6, 5});
+  ASSERT_EQ(in_memory->method(), "gm");
+  expect_same_but_times(*written, *in_memory);
+  EXPECT_EQ(written->provenance().fit.iterations.size(), 3u);
+  EXPECT_EQ(representation_file_bytes(*in_memory).size(), fs::file_size(p("m.btfgmm")));
+}
+
+TEST_F(FitOptionsTest, AnotherMethodRecordsWhatTheCommandRecords) {
+  FitOptions o;
+  o.method = "pca-btf";
+  o.components = 3;
+  const auto a = fit_representation(o, p("btf"), nullptr, {});
+  const auto b = fit_representation(
+      o, p("btf"), std::make_shared<const BtfSource>(BtfSource::open(p("btf"))), {0, 0, 8, 8});
+  expect_same_but_times(*a, *b);
+  EXPECT_EQ(a->frame().width, 8);
+  const auto& s = a->provenance().fit.settings;
+  ASSERT_GE(s.size(), 3u);
+  EXPECT_EQ(s[0], (std::pair<std::string, std::string>{"method", "pca-btf"}));
+  EXPECT_EQ(s[1], (std::pair<std::string, std::string>{"components", "3"}));
+}
+
+TEST(FitOptions, DefaultsAreTheCommands) {
+  const FitRequest r = mixture_fit_request({}, "in", "out");
+  EXPECT_EQ(r.config.components, 600u);
+  EXPECT_EQ(r.config.em.max_iterations, 40);
+  EXPECT_EQ(r.config.em.epsilon, 0.0);
+  EXPECT_EQ(r.precision, Precision::kF32);
+  FitOptions f16;
+  f16.precision = "f16";
+  EXPECT_EQ(mixture_fit_request(f16, "in", "out").precision, Precision::kF16);
+  EXPECT_EQ(method_settings({}, find_method("pca-btf")).encoding, FactorEncoding::kQ8);
+  EXPECT_EQ(method_settings({}, find_method("pca-btf")).components, 0u);  // the method's own
+}
+
+TEST(FitOptions, OptionsThatCannotApplyAreErrors) {
+  FitOptions o;
+  o.precision = "q8";
+  EXPECT_NE(test::error_of([&] {
+              mixture_fit_request(o, "in", "out");
+            }).find("--precision 'q8': the Gaussian mixture stores f32 or f16"),
+            std::string::npos);
+  o = {};
+  o.clusters = 4;
+  EXPECT_NE(test::error_of([&] {
+              mixture_fit_request(o, "in", "out");
+            }).find("--clusters applies to --method lpca only"),
+            std::string::npos);
+  o = {};
+  o.epsilon = 0.01;
+  EXPECT_NE(test::error_of([&] {
+              method_settings(o, find_method("lpca"));
+            }).find("--epsilon cannot apply to --method lpca"),
+            std::string::npos);
+}
+
+TEST(FitOptions, HemisphereDirectionsWrapPhiAndRefuseThetaOffTheHemisphere) {
+  EXPECT_EQ(hemisphere_direction(30, -30, "light", "").phi_deg, 330.0);
+  EXPECT_EQ(hemisphere_direction(30, 725, "light", "").phi_deg, 5.0);
+  EXPECT_EQ(parse_direction("90,360", "--view").phi_deg, 0.0);
+  EXPECT_NE(test::error_of([] {
+              parse_direction("95,0", "--view");
+            }).find("--view '95,0': theta 95 is off the upper hemisphere"),
+            std::string::npos);
+}
+
+TEST(FitOptions, OtherDataIsRefusedUnlessForced) {
+  const DataCheck other{DataMatch::kOtherContent, "other values"};
+  EXPECT_NE(test::error_of([&] { refuse_other_data(other, false, "compare"); })
+                .find("other values; give the data the model was fitted to, or add --force to "
+                      "compare anyway"),
+            std::string::npos);
+  refuse_other_data(other, true, "compare");
+  refuse_other_data({DataMatch::kNotRecorded, "none"}, false, "compare");
+}
+
+}  // namespace
+}  // namespace btfgmm
