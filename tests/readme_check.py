@@ -10,7 +10,8 @@ a fit takes at most MAX_COMPONENTS components and a sweep two iterations a fit (
 option as written). Lines that
 are not commands of the tool (`make ...`) and indented comment lines are skipped. A fit
 whose checkpoint a later command resumes is interrupted with SIGINT, as the README says a
-user's Ctrl-C does, once its first checkpoint is written.
+user's Ctrl-C does, once its first checkpoint is written. Python (a `python3 -c` line, a
+```python block) runs with the built module on PYTHONPATH, where it was built.
 """
 import os
 import re
@@ -22,21 +23,47 @@ import tempfile
 import time
 
 MAX_COMPONENTS = 100
+PYTHON_BLOCK = "<python>"
 SWEEP_ITERATIONS = ["--iterations", "2"]  # every fit of a sweep, unless the README sets them
 SMALL_GENERATE = ["--lights", "spiral:9", "--views", "spiral:4", "--supersample", "1"]
 
 
 def command_lines(readme_text):
-    """The README's commands: the unindented lines of its unlabelled code blocks."""
-    lines, inside = [], False
+    """The README's commands, in order: each unindented line of its unlabelled code blocks, and
+    each ```python block whole (as one entry starting with PYTHON_BLOCK)."""
+    lines, block, inside = [], None, False
     for raw in readme_text.splitlines():
         if raw.startswith("```"):
-            inside = not inside and raw.strip() == "```"
+            if block is not None:
+                lines.append(PYTHON_BLOCK + "\n".join(block))
+                block = None
+            elif raw.strip() == "```python":
+                block = []
+            else:
+                inside = not inside and raw.strip() == "```"
+            continue
+        if block is not None:
+            block.append(raw)
             continue
         if not inside or not raw.strip() or raw[0].isspace() or raw.startswith("#"):
             continue
         lines.append(raw)
     return lines
+
+
+def run_python(code, work, python_path):
+    """Runs Python code of the README with the built module; False where it was not built."""
+    if not os.path.isdir(python_path):
+        return False
+    code = re.sub(r"components=(\d+)",
+                  lambda m: f"components={min(int(m.group(1)), MAX_COMPONENTS)}", code)
+    env = dict(os.environ, PYTHONPATH=python_path)
+    done = subprocess.run(["/usr/bin/python3", "-c", code], cwd=work, env=env,
+                          capture_output=True, timeout=600)
+    if done.returncode != 0:
+        sys.exit(f"FAIL (exit {done.returncode}): the README's Python:\n{code}\n"
+                 f"{done.stderr.decode()}{done.stdout.decode()[-2000:]}")
+    return True
 
 
 def words_of(line):
@@ -85,14 +112,20 @@ def main():
     ran = 0
     with tempfile.TemporaryDirectory(prefix="btfgmm_readme_") as work:
         os.symlink(os.path.join(source, "examples"), os.path.join(work, "examples"))
+        python_path = os.path.join(os.path.dirname(binary), "python")
         for line in commands:
+            start = time.time()
+            if line.startswith(PYTHON_BLOCK) or line.startswith("python3 "):
+                code = line[len(PYTHON_BLOCK):] if line.startswith(PYTHON_BLOCK) else words_of(line)[2]
+                note = "ok" if run_python(code, work, python_path) else "skipped: no module"
+                print(f"{time.time() - start:6.2f} s  {note:18s} python: {code.splitlines()[0][:80]}")
+                continue
             words = words_of(line)
             if words[0] == "make":
                 continue
             if words[0] != "btfgmm":
                 sys.exit(f"FAIL: README command is not btfgmm's: {line}")
             argv = [binary] + smaller(words)[1:]
-            start = time.time()
             checkpoint = option(words, "--checkpoint")
             if words[1] == "fit" and checkpoint in resumed:
                 code = run_interrupted(argv, checkpoint, work)
