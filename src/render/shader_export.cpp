@@ -95,6 +95,11 @@ std::size_t ShaderBuilder::texel(float a, float b, float c, float d) {
   return texels_.size() / 4 - 1;
 }
 
+std::size_t ShaderBuilder::align(std::size_t n) {
+  while (size() % n != 0) texel(0.0f);
+  return size();
+}
+
 std::string glsl_float(double v) {
   const float f = float(v);
   std::string s = fmt::format("{}", f);  // the shortest text that reads back to f
@@ -160,13 +165,16 @@ void add_direction_tables(ShaderBuilder& b, const DirectionSet& set, std::string
   const auto& p = interp.points();
   const auto& tris = interp.triangles();
   const auto& edges = interp.hull_edges();
-  const std::size_t t0 = b.size();
+  const std::size_t t0 = b.align(4);
   for (const auto& t : tris) {
     b.texel(float(p[t[0]][0]), float(p[t[0]][1]), float(p[t[1]][0]), float(p[t[1]][1]));
-    b.texel(float(p[t[2]][0]), float(p[t[2]][1]));
+    const auto &a = p[t[0]], &bb = p[t[1]], &c = p[t[2]];
+    const double area = (bb[0] - a[0]) * (c[1] - a[1]) - (bb[1] - a[1]) * (c[0] - a[0]);
+    b.texel(float(c[0]), float(c[1]), float(1.0 / area));
     b.texel(float(t[0]), float(t[1]), float(t[2]));
+    b.texel(0.0f);
   }
-  const std::size_t e0 = b.size();
+  const std::size_t e0 = b.align(2);
   for (const auto& e : edges) {
     b.texel(float(p[e[0]][0]), float(p[e[0]][1]), float(p[e[1]][0]), float(p[e[1]][1]));
     b.texel(float(e[0]), float(e[1]));

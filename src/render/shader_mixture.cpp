@@ -19,7 +19,7 @@ ShaderExport mixture_shader(const Representation& model) {
   ShaderBuilder b("gm");
   add_common(b, model.frame());
   add_mean_brdf(b, model.frame(), m.mean_brdf);
-  const std::size_t c0 = b.size();
+  const std::size_t c0 = b.align(4);
   for (std::size_t k = 0; k < mix.size(); ++k) {
     const auto& mu = mix.mean[k];
     const auto& var = mix.var[k];

@@ -24,6 +24,9 @@ class ShaderBuilder {
   // Appends a texel; returns its index.
   std::size_t texel(float a, float b = 0.0f, float c = 0.0f, float d = 0.0f);
   std::size_t size() const { return texels_.size() / 4; }
+  // Pads the texture to a multiple of n texels (n divides kShaderTextureWidth: a record of n
+  // texels from there lies in one row); returns the size.
+  std::size_t align(std::size_t n);
   // `const int NAME = value;`, `const vecN NAME = vecN(...)`, a comment line.
   void constant(std::string_view name, std::size_t value);
   void constant(std::string_view name, std::array<double, 2> value);

@@ -13,11 +13,11 @@ vec3 btf_mixture_expectation(vec2 xy, vec4 angles) {
   float top = -3.0e38;
   float weight = 0.0;
   vec3 colour = vec3(0.0);
-  for (int m = 0; m < BTF_M; ++m) {
-    int o = BTF_COMPONENTS + 4 * m;
-    vec4 a = btf_texel(o), b = btf_texel(o + 1), c = btf_texel(o + 2), d = btf_texel(o + 3);
+  ivec2 at = btf_at(BTF_COMPONENTS);
+  for (int m = 0; m < BTF_M; ++m, at = btf_next(at, 4)) {
+    vec4 a = btf_fetch(at, 0), b = btf_fetch(at, 1), c = btf_fetch(at, 2), d = btf_fetch(at, 3);
     vec2 dxy = xy - a.xy;
-    dxy -= BTF_TILE * floor(dxy / BTF_TILE + 0.5);
+    dxy -= BTF_TILE * floor(dxy * (1.0 / BTF_TILE) + 0.5);
     vec4 dang = angles - vec4(a.zw, b.xy);
     float t = d.w + dot(dxy * dxy, b.zw) + dot(dang * dang, c);
     if (t > top) {
