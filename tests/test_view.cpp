@@ -16,6 +16,7 @@
 #include "btfgmm/io/files.hpp"
 #include "btfgmm/io/image.hpp"
 #include "btfgmm/methods/gaussian_mixture.hpp"
+#include "btfgmm/methods/pca_btf.hpp"
 #include "btfgmm/methods/registry.hpp"
 #include "btfgmm/render/shader.hpp"
 #include "btfgmm/render/viewer.hpp"
@@ -94,9 +95,9 @@ TEST(Shader, ParameterFileRoundTripsAndRefusesTruncation) {
 }
 
 TEST(Shader, MethodWithoutShaderIsNamed) {
-  const auto pca = load_representation(std::string(BTFGMM_TEST_DATA) + "/golden_v2_pca-btf.btfgmm");
+  const auto pca = load_representation(std::string(BTFGMM_TEST_DATA) + "/golden_v2_pca-rf.btfgmm");
   const std::string e = test::error_of([&] { export_shader(*pca); });
-  EXPECT_NE(e.find("pca-btf model has no shader"), std::string::npos) << e;
+  EXPECT_NE(e.find("pca-rf model has no shader"), std::string::npos) << e;
   EXPECT_NE(e.find("gm"), std::string::npos) << e;
 }
 
@@ -265,15 +266,21 @@ TEST(Browser, ViewPageAndExportedShaderMatchTheCpuRender) {
   c.components = 40;
   c.seed = 3;
   c.em.max_iterations = 4;
+  const Btf tile = generate(g);
   const std::string model_path = (d / "knit.btfgmm").string();
-  save_model(fit_model(generate(g), c), model_path);
+  const std::string pca_path = (d / "knit-pca.btfgmm").string();
+  save_model(fit_model(tile, c), model_path);
+  MethodSettings ps;
+  ps.components = 6;
+  save_representation(*fit_pca_btf(tile, ps), pca_path);
 
   auto cli = [&](const std::string& args) {
     const auto r = test::run_cli(args, "browser");
     EXPECT_EQ(r.status, 0) << args << "\n" << r.err;
   };
   cli(fmt::format("render {} {} --tolerance 0 -q -o {}/cpu.png", model_path, kScene, d.string()));
-  cli(fmt::format("view {} -q -o {}/page", model_path, d.string()));
+  cli(fmt::format("render {} {} -q -o {}/cpu-pca.png", pca_path, kScene, d.string()));
+  cli(fmt::format("view {} {} -q -o {}/page", model_path, pca_path, d.string()));
   cli(fmt::format("export-shader {} --glsl -q -o {}/page/knit.glsl", model_path, d.string()));
 
   // A second model on the page, read back from export-shader's two files.
@@ -294,14 +301,20 @@ TEST(Browser, ViewPageAndExportedShaderMatchTheCpuRender) {
   const std::string out = browser_readback(browser, d / "page" / "test.html", kQuery, d);
   ASSERT_FALSE(out.empty()) << slurp(d / "browser.log");
   ASSERT_EQ(out.rfind("error", 0), std::string::npos) << out;
-  const std::size_t nl = out.find('\n');
-  ASSERT_NE(nl, std::string::npos) << "one image where two were asked";
-  const std::string page = out.substr(0, nl), from_files = out.substr(nl + 1);
-  const Image cpu = read_image(d / "cpu.png");
-  const double psnr = psnr_against(page, cpu);
+  // The page's models in order: the mixture, PCA BTF, the mixture from the exported files.
+  std::vector<std::string> images;
+  for (std::size_t start = 0; start < out.size();) {
+    const std::size_t end = std::min(out.find('\n', start), out.size());
+    images.push_back(out.substr(start, end - start));
+    start = end + 1;
+  }
+  ASSERT_EQ(images.size(), 3u);
+  const double psnr = psnr_against(images[0], read_image(d / "cpu.png"));
+  const double psnr_pca = psnr_against(images[1], read_image(d / "cpu-pca.png"));
   EXPECT_GE(psnr, 40.0);
-  EXPECT_EQ(from_files, page) << "the exported files render other pixels than the page";
-  std::printf("browser against CPU: PSNR %.2f dB\n", psnr);
+  EXPECT_GE(psnr_pca, 40.0);
+  EXPECT_EQ(images[2], images[0]) << "the exported files render other pixels than the page";
+  std::printf("browser against CPU: PSNR %.2f dB (gm), %.2f dB (pca-btf)\n", psnr, psnr_pca);
   if (!HasFailure()) fs::remove_all(d);
 }
 #endif

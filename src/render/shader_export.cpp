@@ -18,6 +18,7 @@ namespace btfgmm {
 std::span<const ShaderGenerator> shader_generators() {
   static const ShaderGenerator generators[] = {
       {"gm", detail::mixture_shader},
+      {"pca-btf", detail::pca_btf_shader},
   };
   return generators;
 }

@@ -61,5 +61,6 @@ void add_mean_brdf(ShaderBuilder& b, const ModelFrame& frame, std::span<const fl
 
 // The generators (one file each), for the table in shader_export.cpp.
 ShaderExport mixture_shader(const Representation& model);  // shader_mixture.cpp
+ShaderExport pca_btf_shader(const Representation& model);  // shader_pca_btf.cpp
 
 }  // namespace btfgmm::detail
