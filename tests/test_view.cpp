@@ -17,6 +17,7 @@
 #include "btfgmm/io/image.hpp"
 #include "btfgmm/methods/gaussian_mixture.hpp"
 #include "btfgmm/methods/pca_btf.hpp"
+#include "btfgmm/methods/pca_rf.hpp"
 #include "btfgmm/methods/registry.hpp"
 #include "btfgmm/render/shader.hpp"
 #include "btfgmm/render/viewer.hpp"
@@ -95,9 +96,9 @@ TEST(Shader, ParameterFileRoundTripsAndRefusesTruncation) {
 }
 
 TEST(Shader, MethodWithoutShaderIsNamed) {
-  const auto pca = load_representation(std::string(BTFGMM_TEST_DATA) + "/golden_v2_pca-rf.btfgmm");
+  const auto pca = load_representation(std::string(BTFGMM_TEST_DATA) + "/golden_v2_lpca.btfgmm");
   const std::string e = test::error_of([&] { export_shader(*pca); });
-  EXPECT_NE(e.find("pca-rf model has no shader"), std::string::npos) << e;
+  EXPECT_NE(e.find("lpca model has no shader"), std::string::npos) << e;
   EXPECT_NE(e.find("gm"), std::string::npos) << e;
 }
 
@@ -273,6 +274,9 @@ TEST(Browser, ViewPageAndExportedShaderMatchTheCpuRender) {
   MethodSettings ps;
   ps.components = 6;
   save_representation(*fit_pca_btf(tile, ps), pca_path);
+  const std::string pca_rf_path = (d / "knit-pca-rf.btfgmm").string();
+  ps.components = 3;
+  save_representation(*fit_pca_rf(tile, ps), pca_rf_path);
 
   auto cli = [&](const std::string& args) {
     const auto r = test::run_cli(args, "browser");
@@ -280,7 +284,8 @@ TEST(Browser, ViewPageAndExportedShaderMatchTheCpuRender) {
   };
   cli(fmt::format("render {} {} --tolerance 0 -q -o {}/cpu.png", model_path, kScene, d.string()));
   cli(fmt::format("render {} {} -q -o {}/cpu-pca.png", pca_path, kScene, d.string()));
-  cli(fmt::format("view {} {} -q -o {}/page", model_path, pca_path, d.string()));
+  cli(fmt::format("render {} {} -q -o {}/cpu-pca-rf.png", pca_rf_path, kScene, d.string()));
+  cli(fmt::format("view {} {} {} -q -o {}/page", model_path, pca_path, pca_rf_path, d.string()));
   cli(fmt::format("export-shader {} --glsl -q -o {}/page/knit.glsl", model_path, d.string()));
 
   // A second model on the page, read back from export-shader's two files.
@@ -301,20 +306,24 @@ TEST(Browser, ViewPageAndExportedShaderMatchTheCpuRender) {
   const std::string out = browser_readback(browser, d / "page" / "test.html", kQuery, d);
   ASSERT_FALSE(out.empty()) << slurp(d / "browser.log");
   ASSERT_EQ(out.rfind("error", 0), std::string::npos) << out;
-  // The page's models in order: the mixture, PCA BTF, the mixture from the exported files.
+  // The page's models in order: the mixture, PCA BTF, PCA RF, the mixture from the exported
+  // files.
   std::vector<std::string> images;
   for (std::size_t start = 0; start < out.size();) {
     const std::size_t end = std::min(out.find('\n', start), out.size());
     images.push_back(out.substr(start, end - start));
     start = end + 1;
   }
-  ASSERT_EQ(images.size(), 3u);
+  ASSERT_EQ(images.size(), 4u);
   const double psnr = psnr_against(images[0], read_image(d / "cpu.png"));
   const double psnr_pca = psnr_against(images[1], read_image(d / "cpu-pca.png"));
   EXPECT_GE(psnr, 40.0);
+  const double psnr_rf = psnr_against(images[2], read_image(d / "cpu-pca-rf.png"));
   EXPECT_GE(psnr_pca, 40.0);
-  EXPECT_EQ(images[2], images[0]) << "the exported files render other pixels than the page";
-  std::printf("browser against CPU: PSNR %.2f dB (gm), %.2f dB (pca-btf)\n", psnr, psnr_pca);
+  EXPECT_GE(psnr_rf, 40.0);
+  EXPECT_EQ(images[3], images[0]) << "the exported files render other pixels than the page";
+  std::printf("browser against CPU: PSNR %.2f dB (gm), %.2f dB (pca-btf), %.2f dB (pca-rf)\n", psnr,
+              psnr_pca, psnr_rf);
   if (!HasFailure()) fs::remove_all(d);
 }
 #endif

@@ -19,6 +19,7 @@ std::span<const ShaderGenerator> shader_generators() {
   static const ShaderGenerator generators[] = {
       {"gm", detail::mixture_shader},
       {"pca-btf", detail::pca_btf_shader},
+      {"pca-rf", detail::pca_rf_shader},
   };
   return generators;
 }
@@ -195,6 +196,23 @@ void add_mean_brdf(ShaderBuilder& b, const ModelFrame& frame, std::span<const fl
   b.constant("BTF_VIEWS", frame.views.size());
   b.constant("BTF_MEAN_BRDF", m0);
   b.include("mean_brdf.glsl");
+}
+
+void add_measured_images(ShaderBuilder& b, const ModelFrame& frame) {
+  add_direction_tables(b, frame.lights, "LIGHT");
+  add_direction_tables(b, frame.views, "VIEW");
+  b.constant("BTF_LIGHTS", frame.lights.size());
+  b.constant("BTF_VIEWS", frame.views.size());
+  b.include("measured_images.glsl");
+}
+
+std::size_t add_images(ShaderBuilder& b, std::span<const float> rgb, std::size_t count,
+                       std::size_t pixels, std::size_t padded) {
+  const std::size_t first = b.size();
+  for (std::size_t i = 0; i < count * pixels; ++i)
+    b.texel(rgb[3 * i], rgb[3 * i + 1], rgb[3 * i + 2]);
+  for (std::size_t i = count * pixels; i < padded * pixels; ++i) b.texel(0.0f);
+  return first;
 }
 
 }  // namespace detail

@@ -59,8 +59,18 @@ void add_direction_tables(ShaderBuilder& b, const DirectionSet& set, std::string
 // glsl/mean_brdf.glsl: btf_mean_brdf().
 void add_mean_brdf(ShaderBuilder& b, const ModelFrame& frame, std::span<const float> mean_brdf);
 
+// What the methods that store images of the measured pairs share: both direction sets'
+// tables, BTF_LIGHTS and BTF_VIEWS, and glsl/measured_images.glsl (bilinear in space, over the
+// measured directions: methods/measured_images.hpp).
+void add_measured_images(ShaderBuilder& b, const ModelFrame& frame);
+// `count` images of `pixels` RGB pixels each (`rgb`: count x pixels x 3), then zero images up to
+// `padded` in all, a texel a pixel; returns where the first begins.
+std::size_t add_images(ShaderBuilder& b, std::span<const float> rgb, std::size_t count,
+                       std::size_t pixels, std::size_t padded);
+
 // The generators (one file each), for the table in shader_export.cpp.
 ShaderExport mixture_shader(const Representation& model);  // shader_mixture.cpp
 ShaderExport pca_btf_shader(const Representation& model);  // shader_pca_btf.cpp
+ShaderExport pca_rf_shader(const Representation& model);   // shader_pca_rf.cpp
 
 }  // namespace btfgmm::detail
