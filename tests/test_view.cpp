@@ -18,6 +18,7 @@
 #include "btfgmm/methods/gaussian_mixture.hpp"
 #include "btfgmm/methods/pca_btf.hpp"
 #include "btfgmm/methods/pca_rf.hpp"
+#include "btfgmm/methods/ptm_rf.hpp"
 #include "btfgmm/methods/registry.hpp"
 #include "btfgmm/render/shader.hpp"
 #include "btfgmm/render/viewer.hpp"
@@ -277,6 +278,8 @@ TEST(Browser, ViewPageAndExportedShaderMatchTheCpuRender) {
   const std::string pca_rf_path = (d / "knit-pca-rf.btfgmm").string();
   ps.components = 3;
   save_representation(*fit_pca_rf(tile, ps), pca_rf_path);
+  const std::string ptm_path = (d / "knit-ptm.btfgmm").string();
+  save_representation(*fit_ptm_rf(tile, MethodSettings{}), ptm_path);
 
   auto cli = [&](const std::string& args) {
     const auto r = test::run_cli(args, "browser");
@@ -285,7 +288,9 @@ TEST(Browser, ViewPageAndExportedShaderMatchTheCpuRender) {
   cli(fmt::format("render {} {} --tolerance 0 -q -o {}/cpu.png", model_path, kScene, d.string()));
   cli(fmt::format("render {} {} -q -o {}/cpu-pca.png", pca_path, kScene, d.string()));
   cli(fmt::format("render {} {} -q -o {}/cpu-pca-rf.png", pca_rf_path, kScene, d.string()));
-  cli(fmt::format("view {} {} {} -q -o {}/page", model_path, pca_path, pca_rf_path, d.string()));
+  cli(fmt::format("render {} {} -q -o {}/cpu-ptm.png", ptm_path, kScene, d.string()));
+  cli(fmt::format("view {} {} {} {} -q -o {}/page", model_path, pca_path, pca_rf_path, ptm_path,
+                  d.string()));
   cli(fmt::format("export-shader {} --glsl -q -o {}/page/knit.glsl", model_path, d.string()));
 
   // A second model on the page, read back from export-shader's two files.
@@ -306,24 +311,28 @@ TEST(Browser, ViewPageAndExportedShaderMatchTheCpuRender) {
   const std::string out = browser_readback(browser, d / "page" / "test.html", kQuery, d);
   ASSERT_FALSE(out.empty()) << slurp(d / "browser.log");
   ASSERT_EQ(out.rfind("error", 0), std::string::npos) << out;
-  // The page's models in order: the mixture, PCA BTF, PCA RF, the mixture from the exported
-  // files.
+  // The page's models in order: the mixture, PCA BTF, PCA RF, PTM RF, the mixture from the
+  // exported files.
   std::vector<std::string> images;
   for (std::size_t start = 0; start < out.size();) {
     const std::size_t end = std::min(out.find('\n', start), out.size());
     images.push_back(out.substr(start, end - start));
     start = end + 1;
   }
-  ASSERT_EQ(images.size(), 4u);
+  ASSERT_EQ(images.size(), 5u);
   const double psnr = psnr_against(images[0], read_image(d / "cpu.png"));
   const double psnr_pca = psnr_against(images[1], read_image(d / "cpu-pca.png"));
   EXPECT_GE(psnr, 40.0);
   const double psnr_rf = psnr_against(images[2], read_image(d / "cpu-pca-rf.png"));
   EXPECT_GE(psnr_pca, 40.0);
   EXPECT_GE(psnr_rf, 40.0);
-  EXPECT_EQ(images[3], images[0]) << "the exported files render other pixels than the page";
-  std::printf("browser against CPU: PSNR %.2f dB (gm), %.2f dB (pca-btf), %.2f dB (pca-rf)\n", psnr,
-              psnr_pca, psnr_rf);
+  const double psnr_ptm = psnr_against(images[3], read_image(d / "cpu-ptm.png"));
+  EXPECT_GE(psnr_ptm, 40.0);
+  EXPECT_EQ(images[4], images[0]) << "the exported files render other pixels than the page";
+  std::printf(
+      "browser against CPU: PSNR %.2f dB (gm), %.2f dB (pca-btf), %.2f dB (pca-rf), %.2f dB "
+      "(ptm-rf)\n",
+      psnr, psnr_pca, psnr_rf, psnr_ptm);
   if (!HasFailure()) fs::remove_all(d);
 }
 #endif

@@ -20,6 +20,7 @@ std::span<const ShaderGenerator> shader_generators() {
       {"gm", detail::mixture_shader},
       {"pca-btf", detail::pca_btf_shader},
       {"pca-rf", detail::pca_rf_shader},
+      {"ptm-rf", detail::ptm_rf_shader},
   };
   return generators;
 }

@@ -72,5 +72,6 @@ std::size_t add_images(ShaderBuilder& b, std::span<const float> rgb, std::size_t
 ShaderExport mixture_shader(const Representation& model);  // shader_mixture.cpp
 ShaderExport pca_btf_shader(const Representation& model);  // shader_pca_btf.cpp
 ShaderExport pca_rf_shader(const Representation& model);   // shader_pca_rf.cpp
+ShaderExport ptm_rf_shader(const Representation& model);   // shader_ptm_rf.cpp
 
 }  // namespace btfgmm::detail
