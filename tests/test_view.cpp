@@ -16,6 +16,7 @@
 #include "btfgmm/io/files.hpp"
 #include "btfgmm/io/image.hpp"
 #include "btfgmm/methods/gaussian_mixture.hpp"
+#include "btfgmm/methods/lpca.hpp"
 #include "btfgmm/methods/pca_btf.hpp"
 #include "btfgmm/methods/pca_rf.hpp"
 #include "btfgmm/methods/ptm_rf.hpp"
@@ -97,9 +98,9 @@ TEST(Shader, ParameterFileRoundTripsAndRefusesTruncation) {
 }
 
 TEST(Shader, MethodWithoutShaderIsNamed) {
-  const auto pca = load_representation(std::string(BTFGMM_TEST_DATA) + "/golden_v2_lpca.btfgmm");
+  const auto pca = load_representation(std::string(BTFGMM_TEST_DATA) + "/golden_v2_plm-rf.btfgmm");
   const std::string e = test::error_of([&] { export_shader(*pca); });
-  EXPECT_NE(e.find("lpca model has no shader"), std::string::npos) << e;
+  EXPECT_NE(e.find("plm-rf model has no shader"), std::string::npos) << e;
   EXPECT_NE(e.find("gm"), std::string::npos) << e;
 }
 
@@ -280,6 +281,10 @@ TEST(Browser, ViewPageAndExportedShaderMatchTheCpuRender) {
   save_representation(*fit_pca_rf(tile, ps), pca_rf_path);
   const std::string ptm_path = (d / "knit-ptm.btfgmm").string();
   save_representation(*fit_ptm_rf(tile, MethodSettings{}), ptm_path);
+  const std::string lpca_path = (d / "knit-lpca.btfgmm").string();
+  ps.clusters = 3;
+  ps.components = 2;
+  save_representation(*fit_lpca(tile, ps), lpca_path);
 
   auto cli = [&](const std::string& args) {
     const auto r = test::run_cli(args, "browser");
@@ -289,8 +294,9 @@ TEST(Browser, ViewPageAndExportedShaderMatchTheCpuRender) {
   cli(fmt::format("render {} {} -q -o {}/cpu-pca.png", pca_path, kScene, d.string()));
   cli(fmt::format("render {} {} -q -o {}/cpu-pca-rf.png", pca_rf_path, kScene, d.string()));
   cli(fmt::format("render {} {} -q -o {}/cpu-ptm.png", ptm_path, kScene, d.string()));
-  cli(fmt::format("view {} {} {} {} -q -o {}/page", model_path, pca_path, pca_rf_path, ptm_path,
-                  d.string()));
+  cli(fmt::format("render {} {} -q -o {}/cpu-lpca.png", lpca_path, kScene, d.string()));
+  cli(fmt::format("view {} {} {} {} {} -q -o {}/page", model_path, pca_path, pca_rf_path, ptm_path,
+                  lpca_path, d.string()));
   cli(fmt::format("export-shader {} --glsl -q -o {}/page/knit.glsl", model_path, d.string()));
 
   // A second model on the page, read back from export-shader's two files.
@@ -311,15 +317,15 @@ TEST(Browser, ViewPageAndExportedShaderMatchTheCpuRender) {
   const std::string out = browser_readback(browser, d / "page" / "test.html", kQuery, d);
   ASSERT_FALSE(out.empty()) << slurp(d / "browser.log");
   ASSERT_EQ(out.rfind("error", 0), std::string::npos) << out;
-  // The page's models in order: the mixture, PCA BTF, PCA RF, PTM RF, the mixture from the
-  // exported files.
+  // The page's models in order: the mixture, PCA BTF, PCA RF, PTM RF, LPCA, the mixture from
+  // the exported files.
   std::vector<std::string> images;
   for (std::size_t start = 0; start < out.size();) {
     const std::size_t end = std::min(out.find('\n', start), out.size());
     images.push_back(out.substr(start, end - start));
     start = end + 1;
   }
-  ASSERT_EQ(images.size(), 5u);
+  ASSERT_EQ(images.size(), 6u);
   const double psnr = psnr_against(images[0], read_image(d / "cpu.png"));
   const double psnr_pca = psnr_against(images[1], read_image(d / "cpu-pca.png"));
   EXPECT_GE(psnr, 40.0);
@@ -328,11 +334,13 @@ TEST(Browser, ViewPageAndExportedShaderMatchTheCpuRender) {
   EXPECT_GE(psnr_rf, 40.0);
   const double psnr_ptm = psnr_against(images[3], read_image(d / "cpu-ptm.png"));
   EXPECT_GE(psnr_ptm, 40.0);
-  EXPECT_EQ(images[4], images[0]) << "the exported files render other pixels than the page";
+  const double psnr_lpca = psnr_against(images[4], read_image(d / "cpu-lpca.png"));
+  EXPECT_GE(psnr_lpca, 40.0);
+  EXPECT_EQ(images[5], images[0]) << "the exported files render other pixels than the page";
   std::printf(
       "browser against CPU: PSNR %.2f dB (gm), %.2f dB (pca-btf), %.2f dB (pca-rf), %.2f dB "
-      "(ptm-rf)\n",
-      psnr, psnr_pca, psnr_rf, psnr_ptm);
+      "(ptm-rf), %.2f dB (lpca)\n",
+      psnr, psnr_pca, psnr_rf, psnr_ptm, psnr_lpca);
   if (!HasFailure()) fs::remove_all(d);
 }
 #endif

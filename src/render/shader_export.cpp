@@ -17,9 +17,8 @@ namespace btfgmm {
 
 std::span<const ShaderGenerator> shader_generators() {
   static const ShaderGenerator generators[] = {
-      {"gm", detail::mixture_shader},
-      {"pca-btf", detail::pca_btf_shader},
-      {"pca-rf", detail::pca_rf_shader},
+      {"gm", detail::mixture_shader},    {"pca-btf", detail::pca_btf_shader},
+      {"pca-rf", detail::pca_rf_shader}, {"lpca", detail::lpca_shader},
       {"ptm-rf", detail::ptm_rf_shader},
   };
   return generators;

@@ -73,5 +73,6 @@ ShaderExport mixture_shader(const Representation& model);  // shader_mixture.cpp
 ShaderExport pca_btf_shader(const Representation& model);  // shader_pca_btf.cpp
 ShaderExport pca_rf_shader(const Representation& model);   // shader_pca_rf.cpp
 ShaderExport ptm_rf_shader(const Representation& model);   // shader_ptm_rf.cpp
+ShaderExport lpca_shader(const Representation& model);     // shader_lpca.cpp
 
 }  // namespace btfgmm::detail
