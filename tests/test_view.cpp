@@ -19,6 +19,7 @@
 #include "btfgmm/methods/lpca.hpp"
 #include "btfgmm/methods/pca_btf.hpp"
 #include "btfgmm/methods/pca_rf.hpp"
+#include "btfgmm/methods/plm_rf.hpp"
 #include "btfgmm/methods/ptm_rf.hpp"
 #include "btfgmm/methods/registry.hpp"
 #include "btfgmm/render/shader.hpp"
@@ -97,11 +98,17 @@ TEST(Shader, ParameterFileRoundTripsAndRefusesTruncation) {
   EXPECT_NE(e.find("truncated"), std::string::npos) << e;
 }
 
-TEST(Shader, MethodWithoutShaderIsNamed) {
-  const auto pca = load_representation(std::string(BTFGMM_TEST_DATA) + "/golden_v2_plm-rf.btfgmm");
-  const std::string e = test::error_of([&] { export_shader(*pca); });
-  EXPECT_NE(e.find("plm-rf model has no shader"), std::string::npos) << e;
-  EXPECT_NE(e.find("gm"), std::string::npos) << e;
+TEST(Shader, EveryMethodHasAGenerator) {
+  for (const MethodInfo& m : all_methods()) {
+    bool found = false;
+    for (const ShaderGenerator& g : shader_generators()) found = found || g.method == m.name;
+    EXPECT_TRUE(found) << m.name;
+  }
+  const auto plm = load_representation(std::string(BTFGMM_TEST_DATA) + "/golden_v2_plm-rf.btfgmm");
+  const ShaderExport s = export_shader(*plm);
+  EXPECT_EQ(s.method, "plm-rf");
+  EXPECT_NE(s.glsl.find("const float BTF_PLM_SCALE = "), std::string::npos);
+  EXPECT_FALSE(s.has_mean_brdf);
 }
 
 TEST(Shader, ViewerFilesAreSelfContained) {
@@ -285,6 +292,11 @@ TEST(Browser, ViewPageAndExportedShaderMatchTheCpuRender) {
   ps.clusters = 3;
   ps.components = 2;
   save_representation(*fit_lpca(tile, ps), lpca_path);
+  const std::string plm_path = (d / "knit-plm.btfgmm").string();
+  MethodSettings pl;
+  pl.degree = 2;
+  pl.iterations = 5;
+  save_representation(*fit_plm_rf(tile, pl), plm_path);
 
   auto cli = [&](const std::string& args) {
     const auto r = test::run_cli(args, "browser");
@@ -295,8 +307,9 @@ TEST(Browser, ViewPageAndExportedShaderMatchTheCpuRender) {
   cli(fmt::format("render {} {} -q -o {}/cpu-pca-rf.png", pca_rf_path, kScene, d.string()));
   cli(fmt::format("render {} {} -q -o {}/cpu-ptm.png", ptm_path, kScene, d.string()));
   cli(fmt::format("render {} {} -q -o {}/cpu-lpca.png", lpca_path, kScene, d.string()));
-  cli(fmt::format("view {} {} {} {} {} -q -o {}/page", model_path, pca_path, pca_rf_path, ptm_path,
-                  lpca_path, d.string()));
+  cli(fmt::format("render {} {} -q -o {}/cpu-plm.png", plm_path, kScene, d.string()));
+  cli(fmt::format("view {} {} {} {} {} {} -q -o {}/page", model_path, pca_path, pca_rf_path,
+                  ptm_path, lpca_path, plm_path, d.string()));
   cli(fmt::format("export-shader {} --glsl -q -o {}/page/knit.glsl", model_path, d.string()));
 
   // A second model on the page, read back from export-shader's two files.
@@ -317,15 +330,15 @@ TEST(Browser, ViewPageAndExportedShaderMatchTheCpuRender) {
   const std::string out = browser_readback(browser, d / "page" / "test.html", kQuery, d);
   ASSERT_FALSE(out.empty()) << slurp(d / "browser.log");
   ASSERT_EQ(out.rfind("error", 0), std::string::npos) << out;
-  // The page's models in order: the mixture, PCA BTF, PCA RF, PTM RF, LPCA, the mixture from
-  // the exported files.
+  // The page's models in order: the mixture, PCA BTF, PCA RF, PTM RF, LPCA, PLM RF, the
+  // mixture from the exported files.
   std::vector<std::string> images;
   for (std::size_t start = 0; start < out.size();) {
     const std::size_t end = std::min(out.find('\n', start), out.size());
     images.push_back(out.substr(start, end - start));
     start = end + 1;
   }
-  ASSERT_EQ(images.size(), 6u);
+  ASSERT_EQ(images.size(), 7u);
   const double psnr = psnr_against(images[0], read_image(d / "cpu.png"));
   const double psnr_pca = psnr_against(images[1], read_image(d / "cpu-pca.png"));
   EXPECT_GE(psnr, 40.0);
@@ -336,11 +349,13 @@ TEST(Browser, ViewPageAndExportedShaderMatchTheCpuRender) {
   EXPECT_GE(psnr_ptm, 40.0);
   const double psnr_lpca = psnr_against(images[4], read_image(d / "cpu-lpca.png"));
   EXPECT_GE(psnr_lpca, 40.0);
-  EXPECT_EQ(images[5], images[0]) << "the exported files render other pixels than the page";
+  const double psnr_plm = psnr_against(images[5], read_image(d / "cpu-plm.png"));
+  EXPECT_GE(psnr_plm, 40.0);
+  EXPECT_EQ(images[6], images[0]) << "the exported files render other pixels than the page";
   std::printf(
       "browser against CPU: PSNR %.2f dB (gm), %.2f dB (pca-btf), %.2f dB (pca-rf), %.2f dB "
-      "(ptm-rf), %.2f dB (lpca)\n",
-      psnr, psnr_pca, psnr_rf, psnr_ptm, psnr_lpca);
+      "(ptm-rf), %.2f dB (lpca), %.2f dB (plm-rf)\n",
+      psnr, psnr_pca, psnr_rf, psnr_ptm, psnr_lpca, psnr_plm);
   if (!HasFailure()) fs::remove_all(d);
 }
 #endif

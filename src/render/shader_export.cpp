@@ -19,7 +19,7 @@ std::span<const ShaderGenerator> shader_generators() {
   static const ShaderGenerator generators[] = {
       {"gm", detail::mixture_shader},    {"pca-btf", detail::pca_btf_shader},
       {"pca-rf", detail::pca_rf_shader}, {"lpca", detail::lpca_shader},
-      {"ptm-rf", detail::ptm_rf_shader},
+      {"ptm-rf", detail::ptm_rf_shader}, {"plm-rf", detail::plm_rf_shader},
   };
   return generators;
 }
@@ -125,6 +125,9 @@ void ShaderBuilder::constant(std::string_view name, std::array<double, 3> v) {
 void ShaderBuilder::constant(std::string_view name, std::array<double, 4> v) {
   constants_ += fmt::format("const vec4 {} = vec4({}, {}, {}, {});\n", name, glsl_float(v[0]),
                             glsl_float(v[1]), glsl_float(v[2]), glsl_float(v[3]));
+}
+void ShaderBuilder::float_constant(std::string_view name, double value) {
+  constants_ += fmt::format("const float {} = {};\n", name, glsl_float(value));
 }
 void ShaderBuilder::comment(std::string_view text) {
   constants_ += fmt::format("// {}\n", text);

@@ -32,6 +32,7 @@ class ShaderBuilder {
   void constant(std::string_view name, std::array<double, 2> value);
   void constant(std::string_view name, std::array<double, 3> value);
   void constant(std::string_view name, std::array<double, 4> value);
+  void float_constant(std::string_view name, double value);
   void comment(std::string_view text);
   // The GLSL of the resource glsl/`file` after the constants.
   void include(std::string_view file);
@@ -74,5 +75,6 @@ ShaderExport pca_btf_shader(const Representation& model);  // shader_pca_btf.cpp
 ShaderExport pca_rf_shader(const Representation& model);   // shader_pca_rf.cpp
 ShaderExport ptm_rf_shader(const Representation& model);   // shader_ptm_rf.cpp
 ShaderExport lpca_shader(const Representation& model);     // shader_lpca.cpp
+ShaderExport plm_rf_shader(const Representation& model);   // shader_plm_rf.cpp
 
 }  // namespace btfgmm::detail
