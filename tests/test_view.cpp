@@ -216,12 +216,18 @@ std::string browser_readback(const std::string& browser, const fs::path& html,
       (work / "browser.log").string());
   EXPECT_EQ(std::system(cmd.c_str()), 0) << cmd << "\n" << slurp(work / "browser.log");
   const std::string text = slurp(dom);
-  const std::size_t at = text.find("id=\"readback\"");
-  if (at == std::string::npos) return "";
-  const std::size_t open = text.find('>', at), close = text.find("</pre>", at);
-  return open == std::string::npos || close == std::string::npos
-             ? ""
-             : text.substr(open + 1, close - open - 1);
+  // The text of the element `id` (up to the next tag).
+  auto element = [&](const std::string& id) -> std::string {
+    const std::size_t at = text.find("id=\"" + id + "\"");
+    if (at == std::string::npos) return "";
+    const std::size_t open = text.find('>', at), close = text.find('<', open);
+    return open == std::string::npos || close == std::string::npos
+               ? ""
+               : text.substr(open + 1, close - open - 1);
+  };
+  const std::string pixels = element("readback");
+  // Without pixels, what the page said (no WebGL2, a shader that did not compile, ...).
+  return pixels.empty() ? "error: " + element("error") : pixels;
 }
 
 // PSNR in dB of the browser's RGBA pixels ("WxH base64") against a picture's RGB levels.
