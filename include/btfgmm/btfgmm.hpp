@@ -57,6 +57,8 @@
 #include "btfgmm/render/rasterize.hpp"
 #include "btfgmm/render/render.hpp"
 #include "btfgmm/render/representation_evaluator.hpp"
+#include "btfgmm/render/shader.hpp"
+#include "btfgmm/render/viewer.hpp"
 // report: pictures, charts and the HTML report
 #include "btfgmm/report/chart.hpp"
 #include "btfgmm/report/pictures.hpp"

@@ -31,6 +31,11 @@ class DirectionInterpolator {
 
   // Triangles of the triangulation (indices into the set), for inspection and tests.
   const std::vector<std::array<std::uint32_t, 3>>& triangles() const { return triangles_; }
+  // The directions projected onto the disk, (x, y) per direction of the set, and the edges
+  // whose nearest point serves a direction outside the triangulation: what a GPU evaluation
+  // of weights() needs (render/shader.hpp).
+  const std::vector<std::array<double, 2>>& points() const { return points_; }
+  const std::vector<std::array<std::uint32_t, 2>>& hull_edges() const { return hull_edges_; }
 
  private:
   using P2 = std::array<double, 2>;  // a direction projected onto the unit disk: (x, y)
