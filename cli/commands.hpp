@@ -20,5 +20,6 @@ void register_model_commands(CLI::App& app, Commands& commands);    // fit, deco
 void register_compare_commands(CLI::App& app, Commands& commands);  // compare
 void register_render_commands(CLI::App& app, Commands& commands);   // render, tile
 void register_sweep_commands(CLI::App& app, Commands& commands);    // sweep
+void register_texture_commands(CLI::App& app, Commands& commands);  // rangemap
 
 }  // namespace btfgmm::cli
