@@ -57,6 +57,41 @@ nlohmann::json image_json(const ModelFrame& m, const BtfQuality& q, std::size_t 
           {"ssim", iq.ssim}};
 }
 
+nlohmann::json texture_json(const TextureStatistics& t) {
+  return {{"data_mean", t.data_mean},
+          {"model_mean", t.model_mean},
+          {"data_deviation", t.data_deviation},
+          {"model_deviation", t.model_deviation},
+          {"mean_difference", t.mean_difference},
+          {"deviation_difference", t.deviation_difference},
+          {"histogram_distance", t.histogram_distance},
+          {"autocorrelation_difference", t.autocorrelation_difference},
+          {"autocorrelation_max_lag", t.max_lag}};
+}
+
+// A synthesis model's statistics (pixel-wise figures mean nothing for new texture).
+void print_texture_statistics(const TextureStatistics& t) {
+  fmt::print(
+      "  synthesis    makes new texture with the data's statistics: the pixel-wise RMSE, "
+      "PSNR and SSIM below are NOT meaningful\n");
+  fmt::print(
+      "  mean         data {:.2f} {:.2f} {:.2f}, model {:.2f} {:.2f} {:.2f} (R G B; "
+      "per image |difference| {:.3f})\n",
+      t.data_mean[0], t.data_mean[1], t.data_mean[2], t.model_mean[0], t.model_mean[1],
+      t.model_mean[2], t.mean_difference);
+  fmt::print(
+      "  deviation    data {:.2f} {:.2f} {:.2f}, model {:.2f} {:.2f} {:.2f} (per image "
+      "|difference| {:.3f})\n",
+      t.data_deviation[0], t.data_deviation[1], t.data_deviation[2], t.model_deviation[0],
+      t.model_deviation[1], t.model_deviation[2], t.deviation_difference);
+  fmt::print(
+      "  histogram    luminance, 32 bins: total-variation distance {:.3f} (0: equal, 1: "
+      "disjoint)\n",
+      t.histogram_distance);
+  fmt::print("  correlation  normalised autocorrelation up to lag {}: mean |difference| {:.3f}\n",
+             t.max_lag, t.autocorrelation_difference);
+}
+
 nlohmann::json comparison_json(const std::string& btf, const ModelComparison& c) {
   const ModelFrame& m = c.model->frame();
   const BtfQuality& q = c.quality;
@@ -88,6 +123,8 @@ nlohmann::json comparison_json(const std::string& btf, const ModelComparison& c)
   put_model_json(j, *c.model);
   j["decode_seconds"] = c.decode_seconds;
   if (c.fit_seconds > 0) j["fit_seconds"] = c.fit_seconds;
+  j["pixelwise_meaningful"] = !c.texture;
+  if (c.texture) j["texture_statistics"] = texture_json(*c.texture);
   return j;
 }
 
@@ -103,6 +140,7 @@ void print_comparison(const ModelComparison& c) {
              c.tile.width, c.tile.height, c.tile.x, c.tile.y, m.lights.size(), m.views.size(),
              to_string(m.format));
   print_model_lines(*c.model);
+  if (c.texture) print_texture_statistics(*c.texture);
   fmt::print("               {:>8} {:>8} {:>8} {:>8}   {:<44} {}\n", "overall", "red", "green",
              "blue", "worst image", "best image");
   const bool hdr = m.format == SampleFormat::kHdr;  // any scale: significant digits
