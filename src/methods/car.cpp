@@ -187,14 +187,18 @@ Field synthesise_car(const CarModel& m, int width, int height, std::uint64_t see
         }
       }
   }
-  for (std::size_t i = 0; i < y.values.size(); ++i) y.values[i] += m.mean[i % std::size_t(d)];
+  // The level's mean restored: the field's own mean, which a model near its unit root lets
+  // wander, replaced by the model's.
+  const std::vector<double> drift = channel_means(y);
+  for (std::size_t i = 0; i < y.values.size(); ++i)
+    y.values[i] += m.mean[i % std::size_t(d)] - drift[i % std::size_t(d)];
   return y;
 }
 
-double stabilise_car(CarModel& m, double data_trace) {
+double stabilise_car(CarModel& m, double data_trace, int width, int height) {
   double factor = 1.0;
-  for (int attempt = 0; attempt < 30; ++attempt) {
-    const Field f = synthesise_car(m, 48, 48, 1, 2);
+  for (int attempt = 0; attempt < 60; ++attempt) {
+    const Field f = synthesise_car(m, width, height, 1);
     const std::vector<double> mean = channel_means(f);
     double trace = 0.0;
     for (std::size_t i = 0; i < f.values.size(); ++i) {
@@ -202,9 +206,9 @@ double stabilise_car(CarModel& m, double data_trace) {
       trace += v * v;
     }
     trace /= double(f.pixels());
-    if (std::isfinite(trace) && trace <= 4.0 * data_trace) return factor;
-    for (double& g : m.gamma) g *= 0.8;
-    factor *= 0.8;
+    if (std::isfinite(trace) && trace <= kMaxVarianceGain * data_trace) return factor;
+    for (double& g : m.gamma) g *= 0.95;
+    factor *= 0.95;
   }
   return factor;
 }

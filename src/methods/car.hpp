@@ -64,13 +64,17 @@ CarModel select_car(const Field& y, int max_order = kMaxCausalOrder);
 // passes over the same noise are made (Gauss-Seidel sweeps of the model's equations on the
 // torus), all but the last the discarded warm-up; each pass shrinks what the seam still
 // holds of the start by the field's correlation across the image, so that the result
-// satisfies the model at every pixel, the seam included, and tiles. Deterministic from `seed`.
+// satisfies the model at every pixel, the seam included, and tiles. The field's mean is then
+// set to the model's (the level's mean restored). Deterministic from `seed`.
 Field synthesise_car(const CarModel& m, int width, int height, std::uint64_t seed, int passes = 4);
 
-// Shrinks gamma (by 0.8 at a time) until a synthesis's covariance trace stays within 4 times
-// the training field's (an estimate on a short image may be explosive in raster order).
-// Returns the factor applied (1: none).
-double stabilise_car(CarModel& m, double data_trace);
+// Shrinks gamma (by 0.95 at a time) until a synthesis of width x height (the training
+// image's size) has a covariance trace within kMaxVarianceGain times the training image's
+// `data_trace`: an estimate on a short image may be explosive in raster order, or so near
+// its unit root that the torus synthesis inflates the low frequencies. Returns the factor
+// applied (1: none).
+constexpr double kMaxVarianceGain = 1.25;
+double stabilise_car(CarModel& m, double data_trace, int width, int height);
 
 // Gaussian white noise from splitmix64 (Box-Muller), n values, deterministic from `seed`.
 std::vector<double> white_noise(std::size_t n, std::uint64_t seed);

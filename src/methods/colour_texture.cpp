@@ -224,7 +224,7 @@ std::unique_ptr<ColourTexture> fit_colour_texture(TextureKind kind, const Field&
                                                   int max_order) {
   if (kind == TextureKind::kCar3d) {
     CarModel m = select_car(rgb, max_order);
-    stabilise_car(m, covariance_trace(rgb));
+    stabilise_car(m, covariance_trace(rgb), rgb.width, rgb.height);
     return std::make_unique<Car3dTexture>(std::move(m));
   }
   const KarhunenLoeve kl = karhunen_loeve(rgb);
@@ -234,7 +234,7 @@ std::unique_ptr<ColourTexture> fit_colour_texture(TextureKind kind, const Field&
     for (int b = 0; b < 3; ++b) {
       const Field band = channel_of(bands, b);
       models.push_back(select_car(band, max_order));
-      stabilise_car(models.back(), covariance_trace(band));
+      stabilise_car(models.back(), covariance_trace(band), band.width, band.height);
     }
     return std::make_unique<BandTexture<CarModel>>(kl, std::move(models));
   }

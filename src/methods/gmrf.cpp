@@ -117,6 +117,7 @@ Field synthesise_gmrf(const GmrfModel& m, int width, int height, std::uint64_t s
                    kMinSpectrum / 4);
       f[std::size_t(k2) * std::size_t(width) + std::size_t(k1)] *= std::sqrt(m.sigma2 / mu);
     }
+  f[0] = 0.0;  // the level's mean restored exactly: the field's own mean is the model's
   Field y = inverse_dft(f, width, height);
   for (double& v : y.values) v += m.mean;
   return y;

@@ -46,7 +46,8 @@ GmrfModel estimate_gmrf(const Field& band, const std::vector<Offset>& half);
 // than 1% per added parameter (a simple penalised choice), an order too large skipped.
 GmrfModel select_gmrf(const Field& band, int max_order = kMaxGmrfOrder);
 
-// Exact synthesis on the width x height torus; mu_k below kMinSpectrum / 4 are raised to it.
+// Exact synthesis on the width x height torus; mu_k below kMinSpectrum / 4 are raised to it,
+// and the field's mean (the k = 0 term) is the model's.
 // Deterministic from `seed`.
 Field synthesise_gmrf(const GmrfModel& m, int width, int height, std::uint64_t seed);
 

@@ -103,7 +103,18 @@ std::size_t TextureModel::label_of(const Direction& light, const Direction& view
 
 float TextureModel::shading(std::size_t pixel, const Direction& light) const {
   const float mean = mean_lit_[nearest(frame_.lights, light)];
-  return mean > 0.0f ? lit(&normals_[pixel * 3], to_vector(light)) / mean : 1.0f;
+  if (mean <= 0.0f) return 1.0f;
+  return 1.0f + kRelief * (lit(&normals_[pixel * 3], to_vector(light)) / mean - 1.0f);
+}
+
+std::vector<float> TextureModel::shading(const Direction& light) const {
+  const float mean = mean_lit_[nearest(frame_.lights, light)];
+  const Vec3 l = to_vector(light);
+  std::vector<float> out(normals_.size() / 3, 1.0f);
+  if (mean > 0.0f)
+    for (std::size_t p = 0; p < out.size(); ++p)
+      out[p] = 1.0f + kRelief * (lit(&normals_[p * 3], l) / mean - 1.0f);
+  return out;
 }
 
 void TextureModel::predict(std::span<const Query> queries, std::span<float> rgb) const {
@@ -139,8 +150,7 @@ Btf TextureModel::decode(const DirectionSet& lights, const DirectionSet& views, 
 #pragma omp parallel for schedule(dynamic, 1)
   for (std::ptrdiff_t li = 0; li < std::ptrdiff_t(lights.size()); ++li) {
     const Direction& light = lights[std::size_t(li)];
-    std::vector<float> shade(std::size_t(tw * th));
-    for (std::size_t p = 0; p < shade.size(); ++p) shade[p] = shading(p, light);
+    const std::vector<float> shade = shading(light);
     for (std::size_t vi = 0; vi < views.size(); ++vi) {
       const std::vector<float>& s = *synth[label_of(light, views[vi])];
       float* img = out.image(std::size_t(li), vi);

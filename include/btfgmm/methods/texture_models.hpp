@@ -8,8 +8,8 @@
 //   3. Each representative is modelled (methods/colour_texture.hpp): 3D CAR on the RGB vector,
 //      or 2D CAR / GMRF on its Karhunen-Loeve bands; one pyramid level (the image itself).
 //   4. Any (light, view): the subspace of the nearest measured light and view, synthesised
-//      from the seed, times the range map's bump shading max(0, n.l) / mean_xy max(0, n.l) (the
-//      mean taken under the nearest measured light).
+//      from the seed, times the range map's bump shading 1 + kRelief (s - 1), s = max(0, n.l) /
+//      mean_xy max(0, n.l) (the mean taken under the nearest measured light).
 // Payload (after the model file's method tag): the frame (methods/factors.hpp), u64 seed,
 // u8 pyramid levels (1), u32 c, ni*nv u8 labels, the range map as factors (1 row of W*H f16
 // heights), then c subspace models (docs/FORMAT.md).
@@ -32,6 +32,10 @@ class ColourTexture;
 
 class TextureModel final : public Representation {
  public:
+  // How much of the range map's shading is laid over the synthesis: the subspace images hold
+  // the relief's shading already (of their measured light), so a full bump shading would
+  // count it twice (docs/METHODS.md).
+  static constexpr float kRelief = 0.5f;
   using Subspace = std::shared_ptr<const detail::ColourTexture>;
   // `method`: "3d-car", "2d-car" or "gmrf"; `labels` (ni*nv, light-major) index
   // `subspaces`; `heights` W*H (the range map).
@@ -60,9 +64,11 @@ class TextureModel final : public Representation {
 
  private:
   std::size_t label_of(const Direction& light, const Direction& view) const;
-  // The bump shading of a range-map pixel: max(0, n.l) over its mean over the map under the
-  // nearest measured light (so that predict and decode agree at any light).
-  float shading(std::size_t pixel, const Direction& light) const;
+  // The bump shading of every range-map pixel, 1 + kRelief (s - 1) with s = max(0, n.l) over
+  // its mean over the map under the nearest measured light (so that predict and decode agree
+  // at any light).
+  std::vector<float> shading(const Direction& light) const;
+  float shading(std::size_t pixel, const Direction& light) const;  // one pixel's
   // The subspaces' syntheses at the tile's size (what predict reads), made from seed_.
   void synthesise_tiles();
 
