@@ -91,6 +91,11 @@ TEST_P(TextureMethod, AnySizeFromASeedDeterministically) {
   float rgb[3];
   m->predict({&q, 1}, rgb);
   for (int ch = 0; ch < 3; ++ch) EXPECT_FLOAT_EQ(rgb[ch], tile.at(0, 0, 5, 7, ch));
+  // Between pixels, bilinear.
+  const Query half{5.5, 7, light[0], view[0]};
+  m->predict({&half, 1}, rgb);
+  for (int ch = 0; ch < 3; ++ch)
+    EXPECT_NEAR(rgb[ch], (tile.at(0, 0, 5, 7, ch) + tile.at(0, 0, 6, 7, ch)) / 2, 1e-3);
 }
 
 TEST_P(TextureMethod, EveryTruncatedFileIsRefused) {

@@ -117,6 +117,8 @@ std::vector<float> TextureModel::shading(const Direction& light) const {
   return out;
 }
 
+// Bilinear between the four nearest pixels of the tile-sized synthesis, the tile repeating
+// (as the measured data is read): at a pixel centre, the pixel as decode gives it.
 void TextureModel::predict(std::span<const Query> queries, std::span<float> rgb) const {
   const long long w = frame_.width, h = frame_.height;
   for (std::size_t i = 0; i < queries.size(); ++i) {
@@ -124,10 +126,19 @@ void TextureModel::predict(std::span<const Query> queries, std::span<float> rgb)
     detail::check_direction(q.light, "light");
     detail::check_direction(q.view, "view");
     const std::vector<float>& tile = tiles_[label_of(q.light, q.view)];
-    const long long x = ((std::llround(q.x) % w) + w) % w, y = ((std::llround(q.y) % h) + h) % h;
-    const std::size_t p = std::size_t(y * w + x);
-    const float b = shading(p, q.light);
-    for (std::size_t c = 0; c < 3; ++c) rgb[i * 3 + c] = tile[p * 3 + c] * b;
+    const double fx = std::floor(q.x), fy = std::floor(q.y);
+    const double wx = q.x - fx, wy = q.y - fy;
+    for (std::size_t c = 0; c < 3; ++c) rgb[i * 3 + c] = 0.0f;
+    for (int corner = 0; corner < 4; ++corner) {
+      const int dx = corner & 1, dy = corner >> 1;
+      const double weight = (dx ? wx : 1 - wx) * (dy ? wy : 1 - wy);
+      if (weight == 0.0) continue;
+      const long long x = ((static_cast<long long>(fx) + dx) % w + w) % w;
+      const long long y = ((static_cast<long long>(fy) + dy) % h + h) % h;
+      const std::size_t p = std::size_t(y * w + x);
+      const float b = float(weight) * shading(p, q.light);
+      for (std::size_t c = 0; c < 3; ++c) rgb[i * 3 + c] += tile[p * 3 + c] * b;
+    }
   }
 }
 
