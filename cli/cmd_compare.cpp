@@ -46,6 +46,29 @@ std::string pair_text(const ModelFrame& m, std::size_t image) {
                      v.phi_deg);
 }
 
+// A synthesis model's statistics (pixel-wise figures mean nothing for new texture).
+void print_texture_statistics(const TextureStatistics& t) {
+  fmt::print(
+      "  synthesis    makes new texture with the data's statistics: the pixel-wise RMSE, "
+      "PSNR and SSIM below are NOT meaningful\n");
+  fmt::print(
+      "  mean         data {:.2f} {:.2f} {:.2f}, model {:.2f} {:.2f} {:.2f} (R G B; "
+      "per image |difference| {:.3f})\n",
+      t.data_mean[0], t.data_mean[1], t.data_mean[2], t.model_mean[0], t.model_mean[1],
+      t.model_mean[2], t.mean_difference);
+  fmt::print(
+      "  deviation    data {:.2f} {:.2f} {:.2f}, model {:.2f} {:.2f} {:.2f} (per image "
+      "|difference| {:.3f})\n",
+      t.data_deviation[0], t.data_deviation[1], t.data_deviation[2], t.model_deviation[0],
+      t.model_deviation[1], t.model_deviation[2], t.deviation_difference);
+  fmt::print(
+      "  histogram    luminance, 32 bins: total-variation distance {:.3f} (0: equal, 1: "
+      "disjoint)\n",
+      t.histogram_distance);
+  fmt::print("  correlation  normalised autocorrelation up to lag {}: mean |difference| {:.3f}\n",
+             t.max_lag, t.autocorrelation_difference);
+}
+
 std::string db(double v) {
   return std::isfinite(v) ? fmt::format("{:.2f}", v) : "inf";
 }
@@ -58,6 +81,7 @@ void print_comparison(const ModelComparison& c) {
              c.tile.width, c.tile.height, c.tile.x, c.tile.y, m.lights.size(), m.views.size(),
              to_string(m.format));
   print_model_lines(*c.model);
+  if (c.texture) print_texture_statistics(*c.texture);
   fmt::print("               {:>8} {:>8} {:>8} {:>8}   {:<44} {}\n", "overall", "red", "green",
              "blue", "worst image", "best image");
   const bool hdr = m.format == SampleFormat::kHdr;  // any scale: significant digits

@@ -306,10 +306,12 @@ struct DecodeOptions {
   std::vector<std::string> lights, views;
   double tolerance = btfgmm::kDecodeTolerance;
   bool overwrite = false;
+  std::optional<std::uint64_t> seed;
 };
 
 void run_decode(const DecodeOptions& o) {
   const auto model = btfgmm::load_representation(o.model);
+  if (o.seed) model->set_synthesis_seed(*o.seed, "--seed");
   const btfgmm::ModelFrame& m = model->frame();
   check_output_folder(o.out, o.overwrite);
   auto directions = [](const std::vector<std::string>& given, const btfgmm::DirectionSet& all,
@@ -454,6 +456,9 @@ void register_decode(CLI::App& app, Commands& commands) {
       ->capture_default_str()
       ->check(CLI::NonNegativeNumber);
   d->add_flag("--overwrite", dec->overwrite, "Replace images in a non-empty output folder");
+  d->add_option("--seed", dec->seed,
+                "Seed of the synthesis, for the texture models (3d-car, 2d-car, gmrf; default: "
+                "the fit's)");
 
   commands.push_back({d, [dec] { run_decode(*dec); }});
 }

@@ -21,5 +21,6 @@ void register_compare_commands(CLI::App& app, Commands& commands);  // compare
 void register_render_commands(CLI::App& app, Commands& commands);   // render, tile
 void register_sweep_commands(CLI::App& app, Commands& commands);    // sweep
 void register_view_commands(CLI::App& app, Commands& commands);     // view, export-shader
+void register_texture_commands(CLI::App& app, Commands& commands);  // rangemap
 
 }  // namespace btfgmm::cli

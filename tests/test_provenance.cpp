@@ -210,8 +210,10 @@ TEST(Provenance, EveryMethodsFileRecordsItsDataAndFit) {
   for (const MethodInfo& method : all_methods()) {
     MethodSettings s;
     const bool gm = method.name == "gm", fixed = method.name == "ptm-rf" || method.name == "plm-rf";
-    s.components = gm ? 3 : fixed ? 0 : 2;
-    s.clusters = method.name == "lpca" ? 2 : 0;
+    const bool subspaces =
+        method.name == "3d-car" || method.name == "2d-car" || method.name == "gmrf";
+    s.components = gm ? 3 : fixed || subspaces ? 0 : 2;
+    s.clusters = method.name == "lpca" || subspaces ? 2 : 0;
     s.iterations = gm || method.name == "plm-rf" ? 3 : 0;
     const auto fitted = fit_and_record(method, tile, s, fp);
     const auto back = read_representation(representation_file_bytes(*fitted), "m");

@@ -151,6 +151,7 @@ ModelComparison compare_model(const Btf& original, std::shared_ptr<const Represe
   c.mean_brdf_only = measure_quality(original, mean_brdf_alone(original, c.mean_brdf),
                                      c.quality.range, options.ssim);
   picture_pairs(c, original, decoded, options.worst_pairs);
+  if (c.model->synthesises()) c.texture = texture_statistics(original, decoded);
   return c;
 }
 

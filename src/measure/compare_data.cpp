@@ -103,6 +103,19 @@ void put_model_json(nlohmann::json& j, const Representation& r) {
   }
 }
 
+// A synthesis model's statistics against the data (measure/texture_statistics.hpp).
+nlohmann::json texture_json(const TextureStatistics& t) {
+  return {{"data_mean", t.data_mean},
+          {"model_mean", t.model_mean},
+          {"data_deviation", t.data_deviation},
+          {"model_deviation", t.model_deviation},
+          {"mean_difference", t.mean_difference},
+          {"deviation_difference", t.deviation_difference},
+          {"histogram_distance", t.histogram_distance},
+          {"autocorrelation_difference", t.autocorrelation_difference},
+          {"autocorrelation_max_lag", t.max_lag}};
+}
+
 nlohmann::json comparison_json(const std::string& btf, const ModelComparison& c, DataMatch match) {
   const ModelFrame& m = c.model->frame();
   const BtfQuality& q = c.quality;
@@ -134,6 +147,8 @@ nlohmann::json comparison_json(const std::string& btf, const ModelComparison& c,
   put_model_json(j, *c.model);
   j["decode_seconds"] = c.decode_seconds;
   if (c.fit_seconds > 0) j["fit_seconds"] = c.fit_seconds;
+  j["pixelwise_meaningful"] = !c.texture;
+  if (c.texture) j["texture_statistics"] = texture_json(*c.texture);
   j["data_match"] = std::string(to_string(match));
   return j;
 }

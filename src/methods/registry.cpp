@@ -18,6 +18,7 @@
 #include "btfgmm/methods/pca_rf.hpp"
 #include "btfgmm/methods/plm_rf.hpp"
 #include "btfgmm/methods/ptm_rf.hpp"
+#include "btfgmm/methods/texture_models.hpp"
 #include "btfgmm/model/model_file.hpp"
 
 namespace btfgmm {
@@ -77,6 +78,16 @@ const std::vector<MethodInfo>& table() {
       {"plm-rf", "PLM RF: a Lafortune lobe per texel and view, a polynomial per image",
        "Filip, Haindl 2004", "--degree l (4) of the per-image polynomial, --iterations (30)",
        fit_plm_rf, read_plm_rf, plm_rf_ladder},
+      {"3d-car", "3D CAR: BTF subspaces, a causal autoregressive model of RGB each, a range map",
+       "Haindl, Filip 2007", "--clusters c (subspaces, 15)", fit_car3d, read_car3d,
+       texture_model_ladder},
+      {"2d-car",
+       "2D CAR: BTF subspaces, a causal autoregressive model per colour band, a range map",
+       "Haindl, Filip 2007", "--clusters c (subspaces, 15)", fit_car2d, read_car2d,
+       texture_model_ladder},
+      {"gmrf", "GMRF: BTF subspaces, a Gaussian Markov random field per colour band, a range map",
+       "Haindl, Filip 2007", "--clusters c (subspaces, 15)", fit_gmrf, read_gmrf,
+       texture_model_ladder},
   };
   return methods;
 }

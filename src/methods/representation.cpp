@@ -1,6 +1,10 @@
 // What every representation shares: its frame and its compression ratios.
 #include "btfgmm/methods/representation.hpp"
 
+#include <fmt/format.h>
+
+#include "btfgmm/core/error.hpp"
+
 namespace btfgmm {
 
 ModelFrame ModelFrame::of(const Btf& tile) {
@@ -20,6 +24,13 @@ double Representation::paper_ratio() const {
 
 double Representation::file_ratio(std::uint64_t file_bytes) const {
   return frame().data_values() / double(file_bytes);
+}
+
+void Representation::set_synthesis_seed(std::uint64_t, std::string_view option) {
+  throw Error(Error::Kind::kArgument,
+              fmt::format("{}: a '{}' model reproduces its data and synthesises nothing; {} "
+                          "applies to the texture models (3d-car, 2d-car, gmrf)",
+                          option, method(), option));
 }
 
 }  // namespace btfgmm

@@ -187,4 +187,16 @@ Btf generate(const GenerateConfig& config) {
   return btf;
 }
 
+std::vector<float> generate_heights(const GenerateConfig& config) {
+  check_generate_config(config);
+  const int size = config.size;
+  const synth::MaterialModel model = synth::material_model(config.material, size, config.seed);
+  const synth::Surface surf = synth::build_surface(model, size);
+  std::vector<float> out(std::size_t(size) * std::size_t(size));
+  for (int y = 0; y < size; ++y)
+    for (int x = 0; x < size; ++x)
+      out[std::size_t(y) * std::size_t(size) + std::size_t(x)] = surf.h(x + 0.5, y + 0.5);
+  return out;
+}
+
 }  // namespace btfgmm

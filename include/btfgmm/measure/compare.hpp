@@ -4,12 +4,14 @@
 
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <string>
 #include <string_view>
 #include <vector>
 
 #include "btfgmm/core/btf.hpp"
 #include "btfgmm/measure/metrics.hpp"
+#include "btfgmm/measure/texture_statistics.hpp"
 #include "btfgmm/methods/representation.hpp"
 #include "btfgmm/model/model.hpp"
 #include "btfgmm/model/provenance.hpp"
@@ -35,6 +37,9 @@ struct ModelComparison {
   BtfQuality mean_brdf_only;     // the mean BRDF alone (every pixel its image's mean)
   std::vector<float> mean_brdf;  // of the original tile, ni * nv * 3 (Fig. 2)
   std::vector<PicturedPair> pairs;
+  // For a model that synthesises new texture (Representation::synthesises()): its statistics
+  // against the data; `quality` is then not meaningful.
+  std::optional<TextureStatistics> texture;
 };
 
 struct CompareOptions {

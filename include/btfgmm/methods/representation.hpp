@@ -99,6 +99,14 @@ class Representation {
   // Named facts for `info` and the report ("eigen-images", "16"), in display order.
   virtual std::vector<std::pair<std::string, std::string>> details() const { return {}; }
 
+  // Whether the method synthesises new texture with the data's statistics (the probabilistic
+  // texture models, docs/METHODS.md) instead of reproducing the data's pixels: `compare` then
+  // measures statistics and marks the pixel-wise figures as not meaningful.
+  virtual bool synthesises() const { return false; }
+  // The seed of that synthesis, for predict and decode. A method that does not synthesise
+  // throws Error(kArgument) naming `option`.
+  virtual void set_synthesis_seed(std::uint64_t seed, std::string_view option);
+
   // The data it was fitted to and the fit's log, written to its model file and read back
   // (none recorded for older files); fit_and_record (methods/registry.hpp) records it.
   const Provenance& provenance() const { return provenance_; }

@@ -48,4 +48,10 @@ void check_generate_config(const GenerateConfig& config);
 // Throws as check_generate_config.
 Btf generate(const GenerateConfig& config);
 
+// The material's height field at the pixel centres (x + 1/2, y + 1/2), size*size values in
+// pixel units, row-major, about the mean height (the reference plane): the relief generate()
+// renders (what a range map estimated from its images is tested against). Lights, views and
+// supersampling play no part. Throws as check_generate_config.
+std::vector<float> generate_heights(const GenerateConfig& config);
+
 }  // namespace btfgmm

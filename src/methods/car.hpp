@@ -1,0 +1,88 @@
+// The causal autoregressive (CAR) random field of Haindl & Filip (PAMI 2007, Sec. 4.1-4.2;
+// Haindl & Simberova 1992) (internal): a d-dimensional pixel Y_r (the RGB vector for 3D CAR,
+// one Karhunen-Loeve band for 2D CAR) predicted from its causal neighbourhood I_r,
+//   Y_r = gamma X_r + e_r,   X_r = [Y_{r-s} : s in I_r] (d eta values),   e_r ~ N(0, Sigma),
+// estimated in closed form (the analytic Bayesian estimate with a flat prior, which is least
+// squares), the neighbourhood chosen by the papers' decision rule, and synthesised in raster
+// order on a torus from white noise, so that the result tiles.
+#pragma once
+
+#include <cstdint>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "methods/texture_field.hpp"
+
+namespace btfgmm::detail {
+
+// A neighbour's position relative to the pixel: (x + dx, y + dy).
+struct Offset {
+  int dx = 0, dy = 0;
+  bool operator==(const Offset&) const = default;
+};
+
+// Whether s precedes the pixel in raster order (an earlier row, or the same row to its left).
+inline bool causal(const Offset& s) {
+  return s.dy < 0 || (s.dy == 0 && s.dx < 0);
+}
+
+// The causal neighbourhoods the decision rule chooses among, growing with `order` (1: left and
+// above; 2: + both upper diagonals; 3: + two to the left and two above; 4: the half-square of
+// radius 2; 5: of radius 3).
+std::vector<Offset> causal_neighbourhood(int order);
+constexpr int kMaxCausalOrder = 5;
+
+struct CarModel {
+  int d = 3;
+  std::vector<Offset> neighbourhood;  // I_r, eta causal offsets
+  std::vector<double> mean;           // d: removed before the estimate, restored in synthesis
+  std::vector<double> gamma;          // d x (d eta), row-major; column block k is offset k
+  std::vector<double> sigma;          // d x d noise covariance
+  double decision = 0.0;              // the decision rule's D for this neighbourhood
+
+  std::size_t eta() const { return neighbourhood.size(); }
+  // Stored values: gamma, Sigma's upper triangle, the mean.
+  std::size_t parameter_count() const;
+};
+
+// The CAR model's estimate (Haindl & Filip, PAMI 2007, Sec. 4.1; Haindl 2012), over the pixels
+// whose whole neighbourhood lies inside `y` (no wrap): with V = sum_r [Y_r; X_r][Y_r; X_r]^T,
+// gamma^T = Vxx^-1 Vxy, lambda = Vyy - Vxy^T Vxx^-1 Vxy, Sigma = lambda / beta(t). Asserts
+// that the neighbourhood is causal and that `y` holds more such pixels than unknowns.
+// `margin`: pixels this close to the left, right or top edge are left out as well.
+CarModel estimate_car(const Field& y, std::span<const Offset> neighbourhood, int margin = 0);
+
+// The neighbourhood among causal_neighbourhood(1 .. max_order) with the largest decision D
+// (Haindl & Simberova 1992, as Haindl & Filip use it), the model estimated on it; an order
+// too large for the image is skipped.
+CarModel select_car(const Field& y, int max_order = kMaxCausalOrder);
+
+// A field of width x height from the model (Haindl & Filip 2007): Y_r = gamma X_r + L eps_r
+// (L L^T = Sigma, eps white Gaussian), in raster order on the torus, the neighbours wrapping.
+// On a torus the first pixels' neighbours are the last ones, not yet made: `passes` raster
+// passes over the same noise are made (Gauss-Seidel sweeps of the model's equations on the
+// torus), all but the last the discarded warm-up; each pass shrinks what the seam still
+// holds of the start by the field's correlation across the image, so that the result
+// satisfies the model at every pixel, the seam included, and tiles. The field's mean is then
+// set to the model's (the level's mean restored). Deterministic from `seed`.
+Field synthesise_car(const CarModel& m, int width, int height, std::uint64_t seed, int passes = 4);
+
+// Shrinks gamma (by 0.95 at a time) until a synthesis of width x height (the training
+// image's size) has a covariance trace within kMaxVarianceGain times the training image's
+// `data_trace`: an estimate on a short image may be explosive in raster order, or so near
+// its unit root that the torus synthesis inflates the low frequencies. Returns the factor
+// applied (1: none).
+constexpr double kMaxVarianceGain = 1.25;
+double stabilise_car(CarModel& m, double data_trace, int width, int height);
+
+// Gaussian white noise from splitmix64 (Box-Muller), n values, deterministic from `seed`.
+std::vector<double> white_noise(std::size_t n, std::uint64_t seed);
+
+// Cholesky factor L (lower, row-major) of a d x d covariance; a covariance that is not
+// positive definite gets a small ridge first.
+std::vector<double> cholesky_factor(std::span<const double> sigma, int d);
+
+std::string neighbourhood_text(std::span<const Offset> n);
+
+}  // namespace btfgmm::detail

@@ -1,0 +1,222 @@
+// The probabilistic BTF models (Haindl & Filip, PAMI 2007): a subspace's synthesis for any
+// (light, view), shaded with the range map's relief; the payload.
+#include "btfgmm/methods/texture_models.hpp"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cmath>
+
+#include "btfgmm/core/error.hpp"
+#include "btfgmm/core/limits.hpp"
+#include "methods/colour_texture.hpp"
+#include "methods/factors.hpp"
+#include "model/conditional.hpp"
+
+namespace btfgmm {
+namespace {
+
+std::size_t nearest(const DirectionSet& set, const Direction& d) {
+  std::size_t best = 0;
+  double best_angle = 1e300;
+  for (std::size_t i = 0; i < set.size(); ++i)
+    if (const double a = angular_distance_deg(set[i], d); a < best_angle) best_angle = a, best = i;
+  return best;
+}
+
+// The range map's unit normals (-hx, -hy, 1)/|.|, central differences on the torus.
+std::vector<float> normals_of(std::span<const float> h, int w, int ht) {
+  std::vector<float> n(h.size() * 3);
+  for (int y = 0; y < ht; ++y)
+    for (int x = 0; x < w; ++x) {
+      const auto at = [&](int i, int j) {
+        return double(h[std::size_t(((j + ht) % ht) * w + (i + w) % w)]);
+      };
+      const double hx = (at(x + 1, y) - at(x - 1, y)) / 2, hy = (at(x, y + 1) - at(x, y - 1)) / 2;
+      const double len = std::sqrt(hx * hx + hy * hy + 1);
+      float* p = &n[std::size_t(y * w + x) * 3];
+      p[0] = float(-hx / len), p[1] = float(-hy / len), p[2] = float(1 / len);
+    }
+  return n;
+}
+
+// The bump shading's numerator max(0, n.l) at a range-map pixel.
+float lit(const float* n, const Vec3& l) {
+  return float(std::max(0.0, n[0] * l.x + n[1] * l.y + n[2] * l.z));
+}
+
+// Its mean over the map under `light`, the shading's denominator (1 where the light grazes the
+// whole map, to leave the synthesis as it is there).
+float mean_lit(std::span<const float> normals, const Direction& light) {
+  const Vec3 l = to_vector(light);
+  double sum = 0;
+  for (std::size_t i = 0; i < normals.size(); i += 3) sum += lit(&normals[i], l);
+  const double mean = sum / double(normals.size() / 3);
+  return mean > 1e-3 ? float(mean) : 0.0f;
+}
+
+}  // namespace
+
+TextureModel::TextureModel(std::string_view method, ModelFrame frame,
+                           std::vector<std::uint8_t> labels, std::vector<Subspace> subspaces,
+                           std::vector<float> heights, std::uint64_t seed)
+    : method_(method),
+      frame_(std::move(frame)),
+      labels_(std::move(labels)),
+      subspaces_(std::move(subspaces)),
+      heights_(std::move(heights)),
+      seed_(seed) {
+  normals_ = normals_of(heights_, frame_.width, frame_.height);
+  for (const Direction& l : frame_.lights) mean_lit_.push_back(mean_lit(normals_, l));
+  synthesise_tiles();
+}
+
+void TextureModel::synthesise_tiles() {
+  tiles_.assign(subspaces_.size(), {});
+#pragma omp parallel for schedule(dynamic, 1)
+  for (std::ptrdiff_t k = 0; k < std::ptrdiff_t(subspaces_.size()); ++k) {
+    const detail::Field f =
+        subspaces_[std::size_t(k)]->synthesise(frame_.width, frame_.height, seed_);
+    tiles_[std::size_t(k)].assign(f.values.begin(), f.values.end());
+  }
+}
+
+void TextureModel::set_synthesis_seed(std::uint64_t seed, std::string_view) {
+  seed_ = seed;
+  synthesise_tiles();
+}
+
+std::string TextureModel::size_text() const {
+  return fmt::format("c = {}", subspaces_.size());
+}
+
+std::uint64_t TextureModel::parameter_count() const {
+  std::uint64_t n = labels_.size() + heights_.size();
+  for (const Subspace& s : subspaces_) n += s->parameter_count();
+  return n;
+}
+
+std::size_t TextureModel::label_of(const Direction& light, const Direction& view) const {
+  const std::size_t l = nearest(frame_.lights, light), v = nearest(frame_.views, view);
+  return labels_[l * frame_.views.size() + v];
+}
+
+float TextureModel::shading(std::size_t pixel, const Direction& light) const {
+  const float mean = mean_lit_[nearest(frame_.lights, light)];
+  if (mean <= 0.0f) return 1.0f;
+  return 1.0f + kRelief * (lit(&normals_[pixel * 3], to_vector(light)) / mean - 1.0f);
+}
+
+std::vector<float> TextureModel::shading(const Direction& light) const {
+  const float mean = mean_lit_[nearest(frame_.lights, light)];
+  const Vec3 l = to_vector(light);
+  std::vector<float> out(normals_.size() / 3, 1.0f);
+  if (mean > 0.0f)
+    for (std::size_t p = 0; p < out.size(); ++p)
+      out[p] = 1.0f + kRelief * (lit(&normals_[p * 3], l) / mean - 1.0f);
+  return out;
+}
+
+// Bilinear between the four nearest pixels of the tile-sized synthesis, the tile repeating
+// (as the measured data is read): at a pixel centre, the pixel as decode gives it.
+void TextureModel::predict(std::span<const Query> queries, std::span<float> rgb) const {
+  const long long w = frame_.width, h = frame_.height;
+  for (std::size_t i = 0; i < queries.size(); ++i) {
+    const Query& q = queries[i];
+    detail::check_direction(q.light, "light");
+    detail::check_direction(q.view, "view");
+    const std::vector<float>& tile = tiles_[label_of(q.light, q.view)];
+    const double fx = std::floor(q.x), fy = std::floor(q.y);
+    const double wx = q.x - fx, wy = q.y - fy;
+    for (std::size_t c = 0; c < 3; ++c) rgb[i * 3 + c] = 0.0f;
+    for (int corner = 0; corner < 4; ++corner) {
+      const int dx = corner & 1, dy = corner >> 1;
+      const double weight = (dx ? wx : 1 - wx) * (dy ? wy : 1 - wy);
+      if (weight == 0.0) continue;
+      const long long x = ((static_cast<long long>(fx) + dx) % w + w) % w;
+      const long long y = ((static_cast<long long>(fy) + dy) % h + h) % h;
+      const std::size_t p = std::size_t(y * w + x);
+      const float b = float(weight) * shading(p, q.light);
+      for (std::size_t c = 0; c < 3; ++c) rgb[i * 3 + c] += tile[p * 3 + c] * b;
+    }
+  }
+}
+
+Btf TextureModel::decode(const DirectionSet& lights, const DirectionSet& views, int width,
+                         int height, double /*tolerance*/) const {
+  for (const auto& d : lights) detail::check_direction(d, "light");
+  for (const auto& d : views) detail::check_direction(d, "view");
+  if (width < 1 || height < 1 || width > limits::kMaxImageSide || height > limits::kMaxImageSide)
+    throw Error(Error::Kind::kArgument, fmt::format("decode size {}x{}: give 1..{} pixels a side",
+                                                    width, height, limits::kMaxImageSide));
+  Btf out(lights, views, width, height, frame_.format);
+  out.set_origin(frame_.origin);
+  std::vector<const std::vector<float>*> synth(subspaces_.size(), nullptr);
+  for (const Direction& l : lights)
+    for (const Direction& v : views) {
+      const std::size_t k = label_of(l, v);
+      if (!synth[k]) synth[k] = &synthesised(k, width, height);
+    }
+  const int tw = frame_.width, th = frame_.height;
+#pragma omp parallel for schedule(dynamic, 1)
+  for (std::ptrdiff_t li = 0; li < std::ptrdiff_t(lights.size()); ++li) {
+    const Direction& light = lights[std::size_t(li)];
+    const std::vector<float> shade = shading(light);
+    for (std::size_t vi = 0; vi < views.size(); ++vi) {
+      const std::vector<float>& s = *synth[label_of(light, views[vi])];
+      float* img = out.image(std::size_t(li), vi);
+      for (int y = 0; y < height; ++y)
+        for (int x = 0; x < width; ++x) {
+          const std::size_t p = std::size_t(y) * std::size_t(width) + std::size_t(x);
+          const float b = shade[std::size_t((y % th) * tw + x % tw)];
+          for (std::size_t c = 0; c < 3; ++c) img[p * 3 + c] = s[p * 3 + c] * b;
+        }
+    }
+  }
+  return out;
+}
+
+const std::vector<float>& TextureModel::synthesised(std::size_t subspace, int width,
+                                                    int height) const {
+  std::lock_guard<std::mutex> lock(cache_lock_);
+  if (cache_.width != width || cache_.height != height || cache_.seed != seed_ ||
+      cache_.fields.size() != subspaces_.size())
+    cache_ = {width, height, seed_, std::vector<std::vector<float>>(subspaces_.size())};
+  std::vector<float>& f = cache_.fields[subspace];
+  if (f.empty()) {
+    const detail::Field field = subspaces_[subspace]->synthesise(width, height, seed_);
+    f.assign(field.values.begin(), field.values.end());
+  }
+  return f;
+}
+
+std::vector<std::uint8_t> TextureModel::payload() const {
+  detail::ByteWriter w;
+  detail::put_frame(w, frame_);
+  w.put<std::uint64_t>(seed_);
+  w.put<std::uint8_t>(1);  // pyramid levels
+  w.put<std::uint32_t>(std::uint32_t(subspaces_.size()));
+  for (std::uint8_t l : labels_) w.put<std::uint8_t>(l);
+  detail::put_factors(w, heights_, heights_.size(), FactorEncoding::kF16);
+  for (const Subspace& s : subspaces_) s->put(w);
+  return std::move(w.bytes);
+}
+
+std::vector<std::pair<std::string, std::string>> TextureModel::details() const {
+  std::uint64_t models = 0;
+  for (const Subspace& s : subspaces_) models += s->parameter_count();
+  const auto [lo, hi] = std::minmax_element(heights_.begin(), heights_.end());
+  return {
+      {"subspaces",
+       fmt::format("{} (a label for each of the {} images)", subspaces_.size(), labels_.size())},
+      {"pyramid levels", "1 (each subspace image modelled whole)"},
+      {"neighbourhood", subspaces_.empty() ? "" : subspaces_[0]->neighbourhood() + ", subspace 1"},
+      {"values", fmt::format("{} labels + {} range map + {} model parameters", labels_.size(),
+                             heights_.size(), models)},
+      {"range map", fmt::format("{} x {}, heights {:.2f} to {:.2f} pixels", frame_.width,
+                                frame_.height, *lo, *hi)},
+      {"seed", std::to_string(seed_)},
+  };
+}
+
+}  // namespace btfgmm

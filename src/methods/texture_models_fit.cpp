@@ -1,0 +1,153 @@
+// Fitting and reading the probabilistic BTF models (Haindl & Filip, PAMI 2007): subspaces,
+// range map, a texture model per subspace.
+#include <fmt/format.h>
+
+#include <atomic>
+
+#include "btfgmm/core/error.hpp"
+#include "btfgmm/methods/range_map.hpp"
+#include "btfgmm/methods/texture_models.hpp"
+#include "methods/car.hpp"
+#include "methods/colour_texture.hpp"
+#include "methods/factors.hpp"
+#include "methods/subspaces.hpp"
+
+namespace btfgmm {
+namespace {
+
+using detail::TextureKind;
+
+constexpr std::size_t kDefaultSubspaces = 15;
+constexpr int kMinTileSide = 8;
+
+std::string_view method_name(TextureKind kind) {
+  return kind == TextureKind::kCar3d ? "3d-car" : kind == TextureKind::kCar2d ? "2d-car" : "gmrf";
+}
+
+void check_settings(TextureKind kind, const Btf& tile, const MethodSettings& s) {
+  const auto refuse = [&](std::string_view option, auto value) {
+    throw Error(Error::Kind::kArgument,
+                fmt::format("{} {}: {} takes its size from --clusters (subspaces) alone and "
+                            "chooses its neighbourhood itself; leave {} out",
+                            option, value, method_name(kind), option));
+  };
+  if (s.components != 0) refuse("--components", s.components);
+  if (s.degree != 0) refuse("--degree", s.degree);
+  if (s.iterations != 0) refuse("--iterations", s.iterations);
+  if (s.clusters > 255)
+    throw Error(Error::Kind::kArgument, fmt::format("--clusters {}: {} takes 1 to 255 subspaces",
+                                                    s.clusters, method_name(kind)));
+  if (tile.width() < kMinTileSide || tile.height() < kMinTileSide)
+    throw Error(
+        Error::Kind::kArgument,
+        fmt::format("{} needs a tile of at least {} x {} pixels to learn a texture; "
+                    "this one is {} x {}: give a larger --tile",
+                    method_name(kind), kMinTileSide, kMinTileSide, tile.width(), tile.height()));
+}
+
+detail::Field image_field(const Btf& tile, std::size_t image) {
+  detail::Field f(tile.width(), tile.height(), 3);
+  const float* p = tile.data().data() + image * tile.image_floats();
+  f.values.assign(p, p + tile.image_floats());
+  return f;
+}
+
+std::vector<TextureModel::Subspace> fit_subspaces(TextureKind kind, const Btf& tile,
+                                                  const detail::Subspaces& sub,
+                                                  const MethodSettings& s) {
+  std::vector<TextureModel::Subspace> out(sub.representatives.size());
+  std::atomic<std::size_t> done{0};
+  std::atomic<bool> stopped{false};
+#pragma omp parallel for schedule(dynamic, 1)
+  for (std::ptrdiff_t k = 0; k < std::ptrdiff_t(out.size()); ++k) {
+    if (stopped || (s.stop && s.stop->load())) {
+      stopped = true;
+      continue;
+    }
+    out[std::size_t(k)] = detail::fit_colour_texture(
+        kind, image_field(tile, sub.representatives[std::size_t(k)]), detail::kMaxCausalOrder);
+    const std::size_t n = ++done;
+    if (s.progress) {
+#pragma omp critical(btfgmm_texture_progress)
+      s.progress(double(n) / double(out.size()), "a model per subspace");
+    }
+  }
+  if (stopped)
+    throw Error(Error::Kind::kArgument, fmt::format("{}'s fit was stopped", method_name(kind)));
+  return out;
+}
+
+std::unique_ptr<Representation> read_texture_model(TextureKind kind,
+                                                   std::span<const std::uint8_t> payload,
+                                                   std::uint32_t flags, const std::string& name) {
+  detail::ByteReader r(payload, "model file", name, "fit the model again");
+  if (flags != 0)
+    r.fail(fmt::format("{} takes no flags, the file has {:#x}", method_name(kind), flags));
+  ModelFrame frame = detail::get_frame(r);
+  const auto seed = r.get<std::uint64_t>("seed");
+  if (const auto levels = r.get<std::uint8_t>("pyramid levels"); levels != 1)
+    r.fail(fmt::format("{} pyramid levels; this btfgmm reads 1", levels));
+  const std::size_t c = detail::get_count(r, 1, 255, "subspaces");
+  std::vector<std::uint8_t> labels(frame.lights.size() * frame.views.size());
+  for (std::uint8_t& l : labels)
+    if ((l = r.get<std::uint8_t>("labels")) >= c)
+      r.fail(fmt::format("label {} of {} subspaces", l, c));
+  std::vector<float> heights = detail::get_factors(r, 1, frame.pixels(), "range map");
+  std::vector<TextureModel::Subspace> subspaces;
+  for (std::size_t k = 0; k < c; ++k) subspaces.push_back(detail::get_colour_texture(kind, r));
+  if (r.remaining() != 0) r.fail(fmt::format("{} bytes follow the model", r.remaining()));
+  return std::make_unique<TextureModel>(method_name(kind), std::move(frame), std::move(labels),
+                                        std::move(subspaces), std::move(heights), seed);
+}
+
+std::unique_ptr<Representation> fit_texture_model(TextureKind kind, const Btf& tile,
+                                                  const MethodSettings& s) {
+  check_settings(kind, tile, s);
+  if (s.progress) s.progress(0.0, "range map");
+  std::vector<float> heights = estimate_range_map(tile).heights;
+  detail::quantise_factors(heights, heights.size(), FactorEncoding::kF16);
+  const detail::Subspaces sub =
+      detail::cluster_images(tile, s.clusters ? s.clusters : kDefaultSubspaces, s.seed);
+  std::vector<TextureModel::Subspace> models = fit_subspaces(kind, tile, sub, s);
+  const TextureModel fitted(method_name(kind), ModelFrame::of(tile), sub.labels, std::move(models),
+                            std::move(heights), s.seed);
+  // The model as its file holds it (parameters as 32-bit floats): memory and file agree.
+  return read_texture_model(kind, fitted.payload(), 0, "the fitted model");
+}
+
+}  // namespace
+
+std::unique_ptr<Representation> fit_car3d(const Btf& tile, const MethodSettings& s) {
+  return fit_texture_model(TextureKind::kCar3d, tile, s);
+}
+std::unique_ptr<Representation> fit_car2d(const Btf& tile, const MethodSettings& s) {
+  return fit_texture_model(TextureKind::kCar2d, tile, s);
+}
+std::unique_ptr<Representation> fit_gmrf(const Btf& tile, const MethodSettings& s) {
+  return fit_texture_model(TextureKind::kGmrf, tile, s);
+}
+
+std::unique_ptr<Representation> read_car3d(std::span<const std::uint8_t> payload,
+                                           std::uint32_t flags, const std::string& name) {
+  return read_texture_model(TextureKind::kCar3d, payload, flags, name);
+}
+std::unique_ptr<Representation> read_car2d(std::span<const std::uint8_t> payload,
+                                           std::uint32_t flags, const std::string& name) {
+  return read_texture_model(TextureKind::kCar2d, payload, flags, name);
+}
+std::unique_ptr<Representation> read_gmrf(std::span<const std::uint8_t> payload,
+                                          std::uint32_t flags, const std::string& name) {
+  return read_texture_model(TextureKind::kGmrf, payload, flags, name);
+}
+
+std::vector<MethodSettings> texture_model_ladder(const ModelFrame&) {
+  std::vector<MethodSettings> out;
+  for (std::size_t c : {5, 15, 40}) {
+    MethodSettings s;
+    s.clusters = c;
+    out.push_back(s);
+  }
+  return out;
+}
+
+}  // namespace btfgmm
