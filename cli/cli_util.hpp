@@ -188,7 +188,7 @@ inline void put_fit_settings(nlohmann::json& j, const btfgmm::BtfModel& m) {
   j["max_iterations"] = s.max_iterations;
   j["epsilon"] = s.epsilon;
   j["seed"] = s.seed;
-  j["precision"] = m.precision == btfgmm::Precision::kF16 ? "f16" : "f32";
+  j["precision"] = std::string(btfgmm::precision_name(m.precision));
 }
 
 // Any model, for --json output (info, compare): its method, size, stored values and named
