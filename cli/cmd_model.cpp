@@ -32,7 +32,7 @@ namespace {
 // ---- fit ---------------------------------------------------------------------------------
 
 struct FitOptions {
-  std::string input, out, tile, precision, method = "gm";
+  std::string input, out, tile, precision, method = "gm", objective;
   std::size_t components = 0, clusters = 0, degree = 0;  // 0: the method's default
   int iterations = 0;                                    // 0: the method's default
   double epsilon = 0.0;
@@ -86,6 +86,7 @@ btfgmm::FitOptions library_options(const FitOptions& o) {
   f.seed = o.seed;
   f.threads = o.threads;
   f.precision = o.precision;
+  f.objective = o.objective;
   return f;
 }
 
@@ -112,15 +113,18 @@ btfgmm::FitRequest resume_fit_request(const FitOptions& o) {
                   o.resume));
   btfgmm::FitRequest r = btfgmm::resume_request(o.resume);
   if (!o.checkpoint.empty()) r.checkpoint = o.checkpoint;
+  // A checkpoint holds EM's state, before any refinement: the objective is the command's.
+  r.config.objective =
+      btfgmm::parse_objective(o.objective.empty() ? "prediction" : o.objective, "--objective");
   return r;
 }
 
 // With --continue, the finished mixture's EM goes on to --iterations in all, from its stored
 // parameters, on its data (the input, or the source its provenance records).
 btfgmm::FitRequest continue_fit_request(const FitOptions& o) {
-  refuse_options(o, {"--tile", "--components", "--seed", "--precision"},
-                 fmt::format("with --continue: the fit goes on with the tile, components, seed "
-                             "and precision of the model '{}'",
+  refuse_options(o, {"--tile", "--components", "--seed", "--precision", "--objective"},
+                 fmt::format("with --continue: the fit goes on with the tile, components, seed, "
+                             "precision and objective of the model '{}'",
                              o.continue_from));
   if (!o.given.count("--iterations") || o.out.empty())
     throw Error(Error::Kind::kArgument,
@@ -207,11 +211,12 @@ void print_written(const std::string& out, const btfgmm::FitOutcome& fit, const 
 
 // Options of the mixture's EM that another method cannot use are errors, never ignored.
 void check_method_options(const FitOptions& o) {
-  refuse_options(
-      o, {"--epsilon", "--checkpoint", "--checkpoint-every", "--resume", "--continue", "--log"},
-      fmt::format("to --method {}: they belong to the Gaussian mixture's EM "
-                  "(--method gm) only",
-                  o.method));
+  refuse_options(o,
+                 {"--epsilon", "--checkpoint", "--checkpoint-every", "--resume", "--continue",
+                  "--log", "--objective"},
+                 fmt::format("to --method {}: they belong to the Gaussian mixture's EM "
+                             "(--method gm) only",
+                             o.method));
   if (o.input.empty() || o.out.empty())
     throw Error(Error::Kind::kArgument, "fit needs an input BTF and -o MODEL");
 }
@@ -400,14 +405,20 @@ void register_fit(CLI::App& app, Commands& commands) {
       ->check(CLI::Range(0.0, 1.0))
       ->capture_default_str();
   f->add_option("--seed", fit->seed, "Seed of the random initialisation")->capture_default_str();
+  f->add_option("--objective", fit->objective,
+                "gm: prediction (default: EM, then the colour means refitted by least squares "
+                "for the prediction's error, Eq. 8-11) or likelihood (the paper's EM alone, "
+                "exactly)");
   f->add_option("--threads", fit->threads,
                 "Threads (0: all cores; the model does not depend "
                 "on it)")
       ->check(CLI::Range(0, 1024))
       ->capture_default_str();
   f->add_option("--precision", fit->precision,
-                "Parameters stored as f32 or f16 (gm, default f32), or f32, f16 or q8 (8 bits "
-                "with an offset and scale per component; other methods, default q8)");
+                "gm: compact (default: each parameter quantised with a stated step, zstd; "
+                "docs/FORMAT.md), f32 (exact, for --continue to match one longer fit) or f16; "
+                "other methods: f32, f16 or q8 (8 bits with an offset and scale per component, "
+                "default)");
   f->add_option("-o,--output", fit->out, "The model file to write (.btfgmm)");
   f->add_option("--checkpoint", fit->checkpoint,
                 "Save the fit's state here (atomically) every --checkpoint-every iterations and "

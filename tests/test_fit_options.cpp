@@ -84,7 +84,8 @@ TEST(FitOptions, DefaultsAreTheCommands) {
   EXPECT_EQ(r.config.components, 600u);
   EXPECT_EQ(r.config.em.max_iterations, 40);
   EXPECT_EQ(r.config.em.epsilon, 0.0);
-  EXPECT_EQ(r.precision, Precision::kF32);
+  EXPECT_EQ(r.precision, Precision::kCompact);
+  EXPECT_EQ(r.config.objective, FitObjective::kPrediction);
   FitOptions f16;
   f16.precision = "f16";
   EXPECT_EQ(mixture_fit_request(f16, "in", "out").precision, Precision::kF16);
@@ -94,10 +95,10 @@ TEST(FitOptions, DefaultsAreTheCommands) {
 
 TEST(FitOptions, OptionsThatCannotApplyAreErrors) {
   FitOptions o;
-  o.precision = "q8";
+  o.precision = "f8";
   EXPECT_NE(test::error_of([&] {
               mixture_fit_request(o, "in", "out");
-            }).find("--precision 'q8': the Gaussian mixture stores f32 or f16"),
+            }).find("--precision 'f8': the Gaussian mixture stores compact"),
             std::string::npos);
   o = {};
   o.clusters = 4;

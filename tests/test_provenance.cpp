@@ -83,7 +83,7 @@ TEST(Provenance, TheContentHashIsFnv1aOfTheValuesBytes) {
 TEST(Provenance, RoundTripsThroughTheModelFile) {
   const BtfModel m = model_with_provenance();
   const auto bytes = serialize_model(m);
-  EXPECT_EQ(bytes[8], 3);
+  EXPECT_EQ(bytes[8], 4);
   const BtfModel back = deserialize_model(bytes, "p.btfgmm");
   const Provenance& p = back.provenance;
   ASSERT_TRUE(p.recorded);
@@ -172,7 +172,7 @@ TEST(Provenance, OlderFilesReadWithNoneRecorded) {
     EXPECT_FALSE(m->provenance().recorded) << method;
     // Written again: version 3, an empty provenance.
     const auto again = representation_file_bytes(*m);
-    EXPECT_EQ(again[8], 3);
+    EXPECT_EQ(again[8], 4);
     EXPECT_FALSE(read_representation(again, "again")->provenance().recorded) << method;
   }
 }

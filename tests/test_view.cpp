@@ -99,7 +99,10 @@ TEST(Shader, ParameterFileRoundTripsAndRefusesTruncation) {
 }
 
 TEST(Shader, EveryMethodHasAGenerator) {
+  // The texture models synthesise new texture from a seed (their predict runs a synthesis per
+  // subspace): no per-pixel shader; export-shader and view refuse them by name.
   for (const MethodInfo& m : all_methods()) {
+    if (m.name == "3d-car" || m.name == "2d-car" || m.name == "gmrf") continue;
     bool found = false;
     for (const ShaderGenerator& g : shader_generators()) found = found || g.method == m.name;
     EXPECT_TRUE(found) << m.name;

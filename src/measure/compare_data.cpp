@@ -23,7 +23,7 @@ void put_fit_settings(nlohmann::json& j, const BtfModel& m) {
   j["max_iterations"] = s.max_iterations;
   j["epsilon"] = s.epsilon;
   j["seed"] = s.seed;
-  j["precision"] = m.precision == Precision::kF16 ? "f16" : "f32";
+  j["precision"] = std::string(precision_name(m.precision));
 }
 
 nlohmann::json image_json(const ModelFrame& m, const BtfQuality& q, std::size_t image) {

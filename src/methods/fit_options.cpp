@@ -14,10 +14,13 @@ namespace btfgmm {
 namespace {
 
 Precision mixture_precision(const std::string& text) {
-  if (text.empty() || text == "f32") return Precision::kF32;
+  if (text.empty() || text == "compact" || text == "q8") return Precision::kCompact;
+  if (text == "f32") return Precision::kF32;
   if (text == "f16") return Precision::kF16;
   throw Error(Error::Kind::kArgument,
-              fmt::format("--precision '{}': the Gaussian mixture stores f32 or f16", text));
+              fmt::format("--precision '{}': the Gaussian mixture stores compact (the default: "
+                          "quantised, zstd), f32 or f16",
+                          text));
 }
 
 // The mixture, as run_fit fits it but for the file.
@@ -53,16 +56,18 @@ FitRequest mixture_fit_request(const FitOptions& o, const std::string& input,
   r.config.em.max_iterations = o.iterations ? o.iterations : 40;
   r.config.em.epsilon = o.epsilon.value_or(0.0);
   r.config.em.threads = o.threads;
+  r.config.objective =
+      parse_objective(o.objective.empty() ? "prediction" : o.objective, "--objective");
   r.precision = mixture_precision(o.precision);
   return r;
 }
 
 MethodSettings method_settings(const FitOptions& o, const MethodInfo& method) {
-  if (o.epsilon)
+  if (o.epsilon || !o.objective.empty())
     throw Error(Error::Kind::kArgument,
-                fmt::format("--epsilon cannot apply to --method {}: it belongs to the Gaussian "
+                fmt::format("{} cannot apply to --method {}: it belongs to the Gaussian "
                             "mixture's EM (--method gm) only; leave it out",
-                            method.name));
+                            o.epsilon ? "--epsilon" : "--objective", method.name));
   MethodSettings s;
   s.components = o.components;
   s.clusters = o.clusters;

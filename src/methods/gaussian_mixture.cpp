@@ -78,18 +78,18 @@ std::vector<std::pair<std::string, std::string>> GaussianMixture::details() cons
                                "(the density of the 9 variables, each in its model unit)",
                                s.log_likelihood)},
       {"model units", units_text(model_)},
-      {"precision", model_.precision == Precision::kF16 ? "16-bit float" : "32-bit float"},
+      {"precision", std::string(precision_text(model_.precision))},
   };
 }
 
 FactorEncoding GaussianMixture::encoding() const {
-  return model_.precision == Precision::kF16 ? FactorEncoding::kF16 : FactorEncoding::kF32;
+  // The compact file quantises every parameter with a stated step (docs/FORMAT.md): q8's place.
+  return model_.precision == Precision::kF16       ? FactorEncoding::kF16
+         : model_.precision == Precision::kCompact ? FactorEncoding::kQ8
+                                                   : FactorEncoding::kF32;
 }
 
 std::unique_ptr<Representation> fit_gaussian_mixture(const Btf& tile, const MethodSettings& s) {
-  if (s.encoding == FactorEncoding::kQ8)
-    throw Error(Error::Kind::kArgument,
-                "--precision q8: the Gaussian mixture stores f32 or f16; give one of those");
   if (s.clusters != 0)
     throw Error(Error::Kind::kArgument,
                 "--clusters applies to lpca only; the Gaussian mixture's size is --components");
@@ -99,6 +99,7 @@ std::unique_ptr<Representation> fit_gaussian_mixture(const Btf& tile, const Meth
   config.em.max_iterations = s.iterations ? s.iterations : 40;
   config.em.threads = s.threads;
   config.em.stop = s.stop;
+  config.objective = FitObjective::kPrediction;  // the best default (docs/ALGORITHM.md)
   EmCallback progress;
   if (s.progress)
     progress = [&s](const EmProgress& p) {
@@ -107,7 +108,10 @@ std::unique_ptr<Representation> fit_gaussian_mixture(const Btf& tile, const Meth
   BtfModel model = fit_model(tile, config, progress);
   if (model.mixture.size() == 0)
     throw Error(Error::Kind::kArgument, "the Gaussian mixture's fit was stopped");
-  model.precision = s.encoding == FactorEncoding::kF16 ? Precision::kF16 : Precision::kF32;
+  // q8, the smallest: the mixture's compact encoding (docs/FORMAT.md).
+  model.precision = s.encoding == FactorEncoding::kF16  ? Precision::kF16
+                    : s.encoding == FactorEncoding::kQ8 ? Precision::kCompact
+                                                        : Precision::kF32;
   return std::make_unique<GaussianMixture>(std::move(model));
 }
 

@@ -121,7 +121,7 @@ FitCheckpoint load_checkpoint(const std::filesystem::path& path) {
   c.max_iterations = r.get<std::int32_t>("max iterations");
   c.epsilon = r.get<double>("epsilon");
   const auto precision = r.get<std::uint32_t>("precision");
-  if (precision > 1) r.fail("unknown precision");
+  if (precision > 2) r.fail("unknown precision");  // 2: compact (model.hpp)
   c.precision = Precision(precision);
   c.data_fingerprint = r.get<std::uint64_t>("data fingerprint");
   c.runs = r.get<std::uint32_t>("runs");

@@ -69,8 +69,9 @@ std::vector<std::pair<std::string, std::string>> settings_record(const FitReques
           {"components", fmt::to_string(r.config.components)},
           {"iterations", fmt::to_string(r.config.em.max_iterations)},
           {"epsilon", fmt::format("{:g}", r.config.em.epsilon)},
+          {"objective", std::string(objective_name(r.config.objective))},
           {"seed", fmt::to_string(r.config.seed)},
-          {"precision", r.precision == Precision::kF16 ? "f16" : "f32"},
+          {"precision", std::string(precision_name(r.precision))},
           {"threads", fmt::to_string(threads)}};
 }
 
@@ -187,7 +188,14 @@ BtfModel fit_model(const Btf& btf, const FitConfig& config, const EmCallback& pr
                              after_iteration);
   if (state) *state = FitState{mix, em};
   if (em.interrupted) return BtfModel{};
+  // The mixture refined for the prediction: L is then that of the parameters stored.
+  double final_l = em.final_log_likelihood;
+  if (config.objective == FitObjective::kPrediction) {
+    refine_for_prediction(samples, mix, config.em.threads);
+    final_l = mean_log_likelihood(samples, mix, config.em.threads);
+  }
   BtfModel m = model_of(btf, samples, config, std::move(mix), em);
+  m.settings.log_likelihood = final_l;
   m.settings.seconds = seconds_since(t0);
   return m;
 }
@@ -238,6 +246,7 @@ FitRequest continue_request(const fs::path& path, const std::string& input, int 
   r.config.seed = m.settings.seed;
   r.config.em.max_iterations = iterations;
   r.config.em.epsilon = m.settings.epsilon;
+  r.config.objective = recorded_objective(p);
   r.precision = m.precision;
   r.output = output;
   FitCheckpoint k = checkpoint_of(r, Btf(), 0);

@@ -44,4 +44,14 @@ double BtfModel::compression_ratio_file(std::uint64_t file_bytes) const {
   return data_bytes(*this) / double(file_bytes);
 }
 
+std::string_view precision_name(Precision p) {
+  return p == Precision::kF16 ? "f16" : p == Precision::kCompact ? "compact" : "f32";
+}
+
+std::string_view precision_text(Precision p) {
+  return p == Precision::kF16       ? "16-bit float"
+         : p == Precision::kCompact ? "compact (quantised, zstd; docs/FORMAT.md)"
+                                    : "32-bit float";
+}
+
 }  // namespace btfgmm

@@ -14,6 +14,7 @@
 #include "btfgmm/model/model.hpp"
 #include "btfgmm/model/model_file.hpp"
 #include "model/byte_io.hpp"
+#include "model/compact.hpp"
 
 namespace btfgmm {
 namespace {
@@ -172,7 +173,8 @@ Header read_header(std::span<const std::uint8_t> bytes, const std::string& name)
                 fmt::format("model file '{}' is corrupted (CRC-32 {:08x}, stored {:08x}); "
                             "copy or fit it again",
                             name, crc, stored_crc));
-  if (h.flags > 1)
+  // Flags 2 (the mixture's compact encoding) came with version 4.
+  if (h.flags > 2 || (h.flags == 2 && h.version < 4))
     throw Error(Error::Kind::kFormat,
                 fmt::format("model file '{}' has unknown flags {:#x}", name, h.flags));
   return h;
@@ -192,6 +194,7 @@ void read_settings(Reader& r, FitSettings& s) {
 // The mixture's components and the mean BRDF, which must fill the rest of the payload.
 void read_components(Reader& r, BtfModel& m) {
   const Precision p = m.precision;
+  if (p == Precision::kCompact) return detail::get_compact_components(r, m);
   const auto count = r.get<std::uint32_t>("components");
   const std::size_t real_bytes = p == Precision::kF16 ? 2 : 4;
   if (double(m.lights.size()) * double(m.views.size()) > double(r.remaining()))
@@ -240,6 +243,10 @@ std::vector<std::uint8_t> mixture_payload(const BtfModel& m) {
   w.put<std::uint32_t>(s.iterations);
   w.put<std::uint32_t>(s.dropped);
   w.put<double>(s.log_likelihood);
+  if (p == Precision::kCompact) {
+    detail::put_compact_components(w, m);
+    return std::move(w.bytes);
+  }
   w.put<std::uint32_t>(std::uint32_t(m.mixture.size()));
   for (std::size_t k = 0; k < m.mixture.size(); ++k) {
     w.put<float>(float(m.mixture.weight[k]));

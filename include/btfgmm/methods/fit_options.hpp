@@ -1,5 +1,6 @@
 // The settings of a fit of any method as `btfgmm fit` takes them, and the fit they ask for: one
-// place for the defaults (the mixture's M = 600, 40 iterations, f32; each method's own) that
+// place for the defaults (the mixture's M = 600, 40 iterations, the prediction objective, the
+// compact file; each method's own) that
 // the command and the Python module share, so that both fit the same model.
 #pragma once
 
@@ -28,12 +29,14 @@ struct FitOptions {
   std::optional<double> epsilon;  // the mixture's EM only (default 0: all iterations)
   std::uint64_t seed = 1;
   int threads = 0;        // 0: OpenMP's default; the model does not depend on it
-  std::string precision;  // "f32", "f16" (gm, default f32) or "q8" (others, default q8)
+  std::string precision;  // gm: "compact" (default; "q8" too), "f32" or "f16"; others: "q8" (default), "f32", "f16"
+  std::string objective;  // gm: "prediction" (default) or "likelihood" (the paper's EM alone)
 };
 
 // The mixture's fit job from `input` to `output` (the tile, checkpoints and the stop flag are
-// the caller's to set): M = 600 and 40 iterations unless given. Throws Error(kArgument) for a
-// precision other than f32 or f16, and for clusters or degree (other methods' sizes).
+// the caller's to set): M = 600, 40 iterations, the prediction objective and the compact file
+// unless given. Throws Error(kArgument) for a precision other than compact (q8), f32 or f16, an
+// unknown objective, and for clusters or degree (other methods' sizes).
 FitRequest mixture_fit_request(const FitOptions& o, const std::string& input,
                                const std::string& output);
 

@@ -16,6 +16,7 @@
 #include "btfgmm/model/checkpoint.hpp"
 #include "btfgmm/model/em.hpp"
 #include "btfgmm/model/model.hpp"
+#include "btfgmm/model/refine.hpp"
 
 namespace btfgmm {
 
@@ -23,6 +24,10 @@ struct FitConfig {
   std::size_t components = 600;
   std::uint64_t seed = 1;
   EmConfig em;
+  // kLikelihood: the paper's EM alone; kPrediction: EM, then the mixture refined for the
+  // prediction's error (refine_for_prediction, model/refine.hpp). `btfgmm fit` asks for the
+  // latter unless --objective likelihood.
+  FitObjective objective = FitObjective::kLikelihood;
 };
 
 // Mean BRDF, samples, initialisation and EM on a BTF tile. With `resume`, EM continues from

@@ -8,6 +8,7 @@
 #include <functional>
 #include <span>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "btfgmm/core/btf.hpp"
@@ -18,7 +19,13 @@
 
 namespace btfgmm {
 
-enum class Precision : std::uint32_t { kF32 = 0, kF16 = 1 };
+// How the mixture's parameters are stored (docs/FORMAT.md): 32- or 16-bit floats, or the
+// compact encoding (each parameter quantised with a stated step, zstd; model/compact.hpp).
+enum class Precision : std::uint32_t { kF32 = 0, kF16 = 1, kCompact = 2 };
+// "f32", "f16", "compact": as `fit --precision` takes it.
+std::string_view precision_name(Precision p);
+// "32-bit float", "16-bit float", "compact (quantised, zstd)": for people.
+std::string_view precision_text(Precision p);
 
 struct FitSettings {
   std::uint32_t components = 0;  // M requested

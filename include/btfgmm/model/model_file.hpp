@@ -2,6 +2,7 @@
 // records the model's provenance (model/provenance.hpp) after the method tag; version 2 tags
 // the payload with the method that wrote it (methods/registry.hpp reads any method); version 1
 // files hold a Gaussian mixture and are read as such. Versions 1 and 2 have no provenance.
+// Version 4 adds the mixture's compact encoding (flags 2).
 #pragma once
 
 #include <cstdint>
@@ -16,7 +17,7 @@
 
 namespace btfgmm {
 
-constexpr std::uint32_t kModelFormatVersion = 3;
+constexpr std::uint32_t kModelFormatVersion = 4;
 // The Gaussian mixture's method tag.
 constexpr std::string_view kMixtureMethod = "gm";
 

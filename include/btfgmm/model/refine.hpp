@@ -1,0 +1,76 @@
+// Fits that aim at the error of the prediction (Eq. 8-11) rather than the likelihood of the
+// samples (Eq. 3): after EM, the mixture's colour means are refitted by least squares for the
+// gating weights EM found (docs/ALGORITHM.md, "Fitting for the prediction").
+#pragma once
+
+#include <array>
+#include <cstddef>
+#include <string_view>
+#include <vector>
+
+#include "btfgmm/model/mixture.hpp"
+#include "btfgmm/model/provenance.hpp"
+#include "btfgmm/model/samples.hpp"
+
+namespace btfgmm {
+
+// What a fit optimises: the paper's likelihood of the 9-D samples (EM alone, Eq. 3-7), or,
+// from EM's result, the squared error of the prediction (Eq. 8-11) that users measure.
+enum class FitObjective { kLikelihood, kPrediction };
+// "likelihood", "prediction"; parse: Error(kArgument) naming `option` for another name.
+std::string_view objective_name(FitObjective o);
+FitObjective parse_objective(std::string_view text, std::string_view option);
+// The objective a model's provenance records (its "objective" setting); a fit that records
+// none (written before the setting, or by another method) was the paper's: kLikelihood.
+FitObjective recorded_objective(const Provenance& p);
+
+// The least-squares problem of the colour means for fixed gating weights: the prediction of
+// sample i, channel c, is sum_m W_m(x_I,i) mu_m,6+c (Eq. 8-9, model units, the mean BRDF
+// already taken out of the residual r_ic), so its squared error is
+//   E_c(mu) = sum_i (r_ic - sum_m W_im mu_mc)^2 = e_c - 2 mu_c . b_c + mu_c^T G mu_c
+// with the normal matrix G = sum_i W_i W_i^T (M x M, one for all channels), b_c = sum_i W_i r_ic
+// and e_c = sum_i r_ic^2. Weights below e^-25 of a sample's largest are left out.
+struct ColourNormalEquations {
+  std::size_t components = 0;
+  std::vector<double> gram;               // M x M, row-major, symmetric
+  std::vector<double> rhs;                // M x 3: b_mc at m * 3 + c
+  std::array<double, 3> energy{0, 0, 0};  // e_c
+  std::size_t samples = 0;
+};
+// `stride` > 1: only the samples of every stride-th (light, view) pair (l nv + v divisible
+// by it) enter the sums, a systematic subsample of the images for large sample sets.
+ColourNormalEquations colour_normal_equations(const SampleSet& samples, const ProductMixture& mix,
+                                              int threads = 0, std::size_t stride = 1);
+
+// sum_c E_c of the mixture's colour means (model units squared).
+double prediction_squared_error(const ColourNormalEquations& eq, const ProductMixture& mix);
+
+struct ColourRefit {
+  double error_before = 0.0, error_after = 0.0;  // sum_c E_c, model units squared
+  double ridge = 0.0;                            // lambda as used
+  bool kept = false;  // the solve did not lower the error (round-off): the means were kept
+};
+
+// Replaces the colour means mu_m,7..9 with those that minimise
+//   E_c(mu) + lambda |mu_c - mu0_c|^2,  lambda = ridge * trace(G) / M,
+// mu0 the means given (a small pull towards them keeps components that no sample weighs
+// determined), solved in closed form per channel: (G + lambda I) mu_c = b_c + lambda mu0_c.
+// The error never increases: the minimum of the pulled objective is at most its value at mu0.
+ColourRefit refit_colour_means(const ColourNormalEquations& eq, ProductMixture& mix,
+                               double ridge = 1e-6);
+
+// What refine_for_prediction did: the prediction's squared error (model units squared, all
+// samples and channels) after EM and after each stage.
+struct PredictionRefinement {
+  double error_em = 0.0;      // EM's mixture
+  double error_colour = 0.0;  // after the colour means' refit
+  std::size_t samples = 0;
+};
+
+// The mixture EM fitted, refined for the prediction's error (docs/ALGORITHM.md, "Fitting for
+// the prediction"): the colour means refitted by least squares (refit_colour_means).
+// `threads` 0: all cores.
+PredictionRefinement refine_for_prediction(const SampleSet& samples, ProductMixture& mix,
+                                           int threads = 0);
+
+}  // namespace btfgmm

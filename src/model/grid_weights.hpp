@@ -1,0 +1,120 @@
+// The conditional weights W_m(x_I) of Eq. (9)-(10) for every sample of a sample set, on its
+// (pixel, light, view) grid: the exponents t_m are the sum of a pixel's, a light's and a
+// view's part (each tabulated once), and only the weights above e^-25 of a sample's largest
+// are kept (the rest change no sum by more than M e^-25 of its size). Used by the fits for the
+// prediction (refine.cpp).
+#pragma once
+
+#include <omp.h>
+
+#include <cmath>
+#include <cstdint>
+#include <vector>
+
+#include "btfgmm/model/mixture.hpp"
+#include "btfgmm/model/samples.hpp"
+#include "model/conditional.hpp"
+#include "model/mixture_internal.hpp"
+
+namespace btfgmm::detail {
+
+// Weights below this (in log, relative to a sample's largest) are left out.
+constexpr double kNegligibleLogWeight = -25.0;
+
+// One sample and its conditional weights (normalised to sum 1 over those kept).
+struct SampleWeights {
+  std::size_t pixel = 0, light = 0, view = 0, index = 0;  // index: SampleSet::index()
+  float residual[3] = {0, 0, 0};                          // r_i, model units
+  std::vector<std::uint32_t> component;                   // m, increasing
+  std::vector<double> weight;                             // W_m(x_I)
+};
+
+class GridWeights {
+ public:
+  // `stride`: only the (light, view) pairs whose index l nv + v it divides.
+  GridWeights(const SampleSet& s, const ProductMixture& mix, std::size_t stride = 1)
+      : s_(s), m_(mix.size()), stride_(stride) {
+    const Periods periods = variable_periods({double(s.width), double(s.height)});
+    pixel_.resize(s.pixels() * m_);
+    light_.resize(s.lights * m_);
+    view_.resize(s.views * m_);
+    for (std::size_t k = 0; k < m_; ++k) {
+      const double base = log_weight_base(mix, k);
+      const auto& mu = mix.mean[k];
+      const auto& var = mix.var[k];
+      for (std::size_t p = 0; p < s.pixels(); ++p)
+        pixel_[p * m_ + k] =
+            base + log_marginal_term(double(p % std::size_t(s.width)), mu[0], var[0], periods[0]) +
+            log_marginal_term(double(p / std::size_t(s.width)), mu[1], var[1], periods[1]);
+      for (std::size_t l = 0; l < s.lights; ++l)
+        light_[l * m_ + k] = log_marginal_term(s.light_ab[l][0], mu[2], var[2], 0.0) +
+                             log_marginal_term(s.light_ab[l][1], mu[3], var[3], 0.0);
+      for (std::size_t v = 0; v < s.views; ++v)
+        view_[v * m_ + k] = log_marginal_term(s.view_ab[v][0], mu[4], var[4], 0.0) +
+                            log_marginal_term(s.view_ab[v][1], mu[5], var[5], 0.0);
+    }
+  }
+
+  // The samples for_each_sample visits.
+  std::size_t samples() const {
+    return s_.pixels() * ((s_.lights * s_.views + stride_ - 1) / stride_);
+  }
+
+  // Calls visit(const SampleWeights&) for every sample (of the stride); inside an OpenMP parallel
+  // region the pixels are shared out among its threads (each thread sees whole pixels).
+  template <class Visit>
+  void for_each_sample(Visit&& visit) const {
+    std::vector<double> pl(m_), t(m_);
+    SampleWeights w;
+    w.component.reserve(m_);
+    w.weight.reserve(m_);
+    const std::ptrdiff_t pixels = std::ptrdiff_t(s_.pixels());
+#pragma omp for schedule(dynamic, 1)
+    for (std::ptrdiff_t pp = 0; pp < pixels; ++pp) {
+      const std::size_t p = std::size_t(pp);
+      for (std::size_t l = 0; l < s_.lights; ++l) {
+        const double* a = &pixel_[p * m_];
+        const double* b = &light_[l * m_];
+        for (std::size_t k = 0; k < m_; ++k) pl[k] = a[k] + b[k];
+        for (std::size_t v = 0; v < s_.views; ++v) {
+          if ((l * s_.views + v) % stride_ != 0) continue;
+          weights(pl.data(), &view_[v * m_], t.data(), w);
+          w.pixel = p;
+          w.light = l;
+          w.view = v;
+          w.index = s_.index(p, l, v);
+          for (int c = 0; c < 3; ++c) w.residual[c] = s_.residual[w.index * 3 + std::size_t(c)];
+          visit(w);
+        }
+      }
+    }
+  }
+
+ private:
+  // t = pl + view; the kept components' weights exp(t - max) / sum.
+  void weights(const double* pl, const double* view, double* t, SampleWeights& w) const {
+    double mx = -INFINITY;
+    for (std::size_t k = 0; k < m_; ++k) {
+      t[k] = pl[k] + view[k];
+      mx = t[k] > mx ? t[k] : mx;
+    }
+    w.component.clear();
+    w.weight.clear();
+    const double cut = mx + kNegligibleLogWeight;
+    double sum = 0.0;
+    for (std::size_t k = 0; k < m_; ++k)
+      if (t[k] > cut) {
+        const double e = std::exp(t[k] - mx);
+        w.component.push_back(std::uint32_t(k));
+        w.weight.push_back(e);
+        sum += e;
+      }
+    for (double& e : w.weight) e /= sum;
+  }
+
+  const SampleSet& s_;
+  std::size_t m_, stride_;
+  std::vector<double> pixel_, light_, view_;  // the exponents' parts, M a row
+};
+
+}  // namespace btfgmm::detail
