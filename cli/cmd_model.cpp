@@ -6,12 +6,15 @@
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
+#include <fstream>
 #include <iostream>
 #include <map>
 #include <memory>
 #include <optional>
 #include <span>
 #include <string>
+
+#include <unistd.h>
 
 #include "btfgmm/btfgmm.hpp"
 #include "btfgmm/core/text.hpp"
@@ -152,11 +155,10 @@ void choose_fit_tile(btfgmm::FitRequest& r, const std::string& tile, bool quiet)
   r.source = std::move(src);
 }
 
-void print_loaded(const btfgmm::Btf& btf, double seconds) {
-  const std::size_t n = btf.image_count() * std::size_t(btf.width()) * btf.height();
+void print_loaded(const btfgmm::FitTile& t, double seconds) {
   fmt::print(stderr, "loaded {}x{} pixels at ({}, {}) x {} lights x {} views = {} samples in {}\n",
-             btf.width(), btf.height(), btf.origin().x, btf.origin().y, btf.lights().size(),
-             btf.views().size(), n, human_seconds(seconds));
+             t.origin.width, t.origin.height, t.origin.x, t.origin.y, t.lights.size(),
+             t.views.size(), t.samples(), human_seconds(seconds));
 }
 
 // Where this run of a fit starts: after `iteration` iterations (0, or those of the fit it
@@ -166,6 +168,14 @@ struct RunStart {
   double seconds = 0.0;
 };
 
+// The memory this process holds now (its resident set, /proc/self/statm), 0 where unknown.
+double memory_in_use() {
+  std::ifstream statm("/proc/self/statm");
+  double pages = 0, resident = 0;
+  if (!(statm >> pages >> resident)) return 0.0;
+  return resident * double(sysconf(_SC_PAGESIZE));
+}
+
 // One EM iteration; the time left is estimated from this run's iterations. The first
 // iteration of a fit has no gain.
 void print_iteration(const btfgmm::EmProgress& p, const RunStart& start) {
@@ -173,9 +183,11 @@ void print_iteration(const btfgmm::EmProgress& p, const RunStart& start) {
   const std::string gain =
       std::isnan(p.relative_gain) ? std::string() : fmt::format("gain {:+.2e}", p.relative_gain);
   fmt::print(stderr,
-             "iteration {:>3}/{}  L = {:.6f}  {:<14}  components {} ({} dropped)  {}  ETA {}\n",
+             "iteration {:>3}/{}  L = {:.6f}  {:<14}  components {} ({} dropped)  {}  ETA {}  "
+             "memory {}\n",
              p.iteration, p.max_iterations, p.log_likelihood, gain, p.components, p.dropped,
-             human_seconds(p.seconds), human_seconds(per * (p.max_iterations - p.iteration)));
+             human_seconds(p.seconds), human_seconds(per * (p.max_iterations - p.iteration)),
+             human_bytes(memory_in_use()));
 }
 
 // The model written. Its L is of the parameters written, after the last M-step; each
@@ -233,7 +245,8 @@ void run_method_fit(const FitOptions& o) {
   const btfgmm::Tile tile = o.tile.empty() ? btfgmm::Tile{0, 0, src.info().width, src.info().height}
                                            : tile_option(src, o.tile, o.quiet);
   const btfgmm::Btf btf = src.load(tile);
-  if (!o.quiet) print_loaded(btf, seconds_since(t0));
+  if (!o.quiet)
+    print_loaded({btf.lights(), btf.views(), btf.origin(), btf.format()}, seconds_since(t0));
   if (!o.quiet)
     s.progress = [&](double fraction, std::string_view stage) {
       fmt::print(stderr, "{} {:>5.1f}%  {}\n", o.method, 100.0 * fraction, stage);
@@ -286,8 +299,8 @@ void run_fit(const FitOptions& o) {
   std::optional<StopOnSignals> stop_on_signals;
   std::optional<IterationLog> log;
   btfgmm::FitObserver observer;
-  observer.started = [&](const btfgmm::Btf& btf) {
-    if (!o.quiet) print_loaded(btf, seconds_since(t0));
+  observer.started = [&](const btfgmm::FitTile& tile) {
+    if (!o.quiet) print_loaded(tile, seconds_since(t0));
     if (r.resume && !o.quiet)
       fmt::print(stderr, "{} {} after iteration {}\n", resumed ? "resuming from" : "continuing",
                  r.resume->path, start.iteration);

@@ -177,23 +177,32 @@ std::uint32_t colour_key(const float* rgb, const float lo[3], const float span[3
 std::vector<std::uint8_t> view_order(const SampleSet& s) {
   const std::size_t nv = s.views, blocks = s.pixels() * s.lights;
   if (nv > 256 || nv < 2) return {};
+  const auto n = std::ptrdiff_t(blocks);
   float lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
-  for (std::size_t i = 0; i < s.size(); ++i)
-    for (int c = 0; c < 3; ++c) {
-      lo[c] = std::min(lo[c], s.residual[i * 3 + std::size_t(c)]);
-      hi[c] = std::max(hi[c], s.residual[i * 3 + std::size_t(c)]);
+#pragma omp parallel reduction(min : lo[:3]) reduction(max : hi[:3])
+  {
+    std::vector<float> r(nv * 3);
+#pragma omp for schedule(static)
+    for (std::ptrdiff_t b = 0; b < n; ++b) {
+      s.block_residuals(std::size_t(b) / s.lights, std::size_t(b) % s.lights, r.data());
+      for (std::size_t k = 0; k < nv * 3; ++k) {
+        lo[k % 3] = std::min(lo[k % 3], r[k]);
+        hi[k % 3] = std::max(hi[k % 3], r[k]);
+      }
     }
+  }
   const float span[3] = {hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]};
   std::vector<std::uint8_t> order(s.size());
-  const auto n = std::ptrdiff_t(blocks);
 #pragma omp parallel
   {
     std::vector<std::pair<std::uint32_t, std::uint8_t>> key(nv);
+    std::vector<float> r(nv * 3);
 #pragma omp for schedule(static)
     for (std::ptrdiff_t b = 0; b < n; ++b) {
       const std::size_t first = std::size_t(b) * nv;
+      s.block_residuals(std::size_t(b) / s.lights, std::size_t(b) % s.lights, r.data());
       for (std::size_t v = 0; v < nv; ++v)
-        key[v] = {colour_key(&s.residual[(first + v) * 3], lo, span), std::uint8_t(v)};
+        key[v] = {colour_key(&r[v * 3], lo, span), std::uint8_t(v)};
       std::sort(key.begin(), key.end());
       for (std::size_t v = 0; v < nv; ++v) order[first + v] = key[v].second;
     }
@@ -225,6 +234,7 @@ std::vector<std::uint8_t> view_order(const SampleSet& s) {
   const float* lrow = &t.l[l * st];
 #pragma omp simd
   for (std::size_t m = 0; m < st; ++m) w.sl[m] = srow[m] + lrow[m];
+  s.block_residuals(p, l, w.residual.data());
   if (stats) {
     std::fill(w.a0.begin(), w.a0.end(), 0.0f);
     std::fill(w.a1.begin(), w.a1.end(), 0.0f);
@@ -233,11 +243,10 @@ std::vector<std::uint8_t> view_order(const SampleSet& s) {
   const std::uint32_t* views = block_views(s, order, p, l, w.view_list.data());
   std::size_t v = 0;
 #if defined(__AVX512F__)
-  v = detail::block_pass_avx512(t, s, p, l, views, w, stats, ll);
+  v = detail::block_pass_avx512(t, nv, views, w, stats, ll);
 #endif
-  for (; v + kGroup <= nv; v += kGroup)
-    ll += detail::group_pass<kGroup>(t, s, p, l, views + v, w, stats);
-  for (; v < nv; ++v) ll += detail::group_pass<1>(t, s, p, l, views + v, w, stats);
+  for (; v + kGroup <= nv; v += kGroup) ll += detail::group_pass<kGroup>(t, views + v, w, stats);
+  for (; v < nv; ++v) ll += detail::group_pass<1>(t, views + v, w, stats);
 }
 
 // The block's accumulators (float) into the per-pixel sums qp and the chunk's statistics

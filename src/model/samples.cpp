@@ -10,6 +10,7 @@
 #include "btfgmm/core/error.hpp"
 #include "btfgmm/core/limits.hpp"
 #include "btfgmm/model/model.hpp"
+#include "btfgmm/model/provenance.hpp"
 #include "btfgmm/model/samples.hpp"
 #include "core/random.hpp"
 #include "model/mixture_internal.hpp"
@@ -33,20 +34,6 @@ double angular_sampling_step(const DirectionSet& set) {
   return nearest[nearest.size() / 2] * std::numbers::pi / 180.0;
 }
 
-std::vector<float> mean_brdf(const Btf& btf) {
-  const std::size_t pixels = std::size_t(btf.width()) * btf.height();
-  std::vector<float> out(btf.image_count() * 3);
-#pragma omp parallel for schedule(static)
-  for (std::size_t i = 0; i < btf.image_count(); ++i) {
-    const float* img = btf.data().data() + i * btf.image_floats();
-    double sum[3] = {0, 0, 0};
-    for (std::size_t p = 0; p < pixels; ++p)
-      for (int c = 0; c < 3; ++c) sum[c] += img[p * 3 + c];
-    for (int c = 0; c < 3; ++c) out[i * 3 + c] = float(sum[c] / double(pixels));
-  }
-  return out;
-}
-
 std::array<double, kVariables> SampleSet::sample(std::size_t i) const {
   const std::size_t v = i % views, l = (i / views) % lights, p = i / (views * lights);
   return {double(p % std::size_t(width)),
@@ -55,19 +42,95 @@ std::array<double, kVariables> SampleSet::sample(std::size_t i) const {
           light_ab[l][1],
           view_ab[v][0],
           view_ab[v][1],
-          residual[i * 3],
-          residual[i * 3 + 1],
-          residual[i * 3 + 2]};
+          residual_of(i, 0),
+          residual_of(i, 1),
+          residual_of(i, 2)};
+}
+
+void SampleSet::block_residuals(std::size_t p, std::size_t l, float* out) const {
+  const std::size_t first = index(p, l, 0) * 3, n = views * 3;
+  if (levels.empty()) {
+    std::copy_n(&residual[first], n, out);
+    return;
+  }
+  const float* mean = &mean_brdf[l * views * 3];
+  const std::uint8_t* level = &levels[first];
+  for (std::size_t k = 0; k < n; ++k) out[k] = (float(level[k]) - mean[k]) * inv_colour_unit;
+}
+
+namespace {
+
+// The frame of a sample set: its size, and the units (docs/ALGORITHM.md): pixels; the angular
+// sampling step of each direction set; 8-bit levels for LDR data, 1/255 of the data's range
+// (lo .. hi) for HDR. The directions' onion-slice angles in those units.
+SampleSet sample_frame(const DirectionSet& lights, const DirectionSet& views, int width, int height,
+                       SampleFormat format, float lo, float hi) {
+  SampleSet s;
+  s.width = width;
+  s.height = height;
+  s.lights = lights.size();
+  s.views = views.size();
+  const double light_unit = angular_sampling_step(lights);
+  const double view_unit = angular_sampling_step(views);
+  double colour_unit = 1.0;
+  if (format == SampleFormat::kHdr) colour_unit = hi > lo ? double(hi - lo) / 255.0 : 1.0;
+  s.scaling.unit = {1.0,       1.0,         light_unit,  light_unit, view_unit,
+                    view_unit, colour_unit, colour_unit, colour_unit};
+  s.inv_colour_unit = float(1.0 / colour_unit);
+  for (const Direction& d : lights) {
+    const OnionSlice o = to_onion_slice(d);
+    s.light_ab.push_back({o.alpha / light_unit, o.beta / light_unit});
+  }
+  for (const Direction& d : views) {
+    const OnionSlice o = to_onion_slice(d);
+    s.view_ab.push_back({o.alpha / view_unit, o.beta / view_unit});
+  }
+  return s;
+}
+
+// The sample set's data take `bytes` a sample beside the tile; refused beyond memory.
+void check_sample_memory(const SampleSet& s, double bytes) {
+  limits::check_memory(double(s.size()) * bytes,
+                       fmt::format("fitting a {}x{} tile of {} lights x {} views", s.width,
+                                   s.height, s.lights, s.views),
+                       "fit a smaller tile (--tile)");
+}
+
+// 8-bit levels: whole numbers 0 .. 255 (the Btf's kLdr8 data).
+bool whole_levels(std::span<const float> values) {
+  return std::all_of(values.begin(), values.end(),
+                     [](float v) { return v >= 0.0f && v <= 255.0f && v == std::floor(v); });
+}
+
+// One image's samples (pixel, RGB) into their places in the sample order, as levels.
+void store_levels(SampleSet& s, std::size_t l, std::size_t v, std::span<const float> img) {
+  for (std::size_t p = 0; p < s.pixels(); ++p)
+    for (std::size_t c = 0; c < 3; ++c)
+      s.levels[s.index(p, l, v) * 3 + c] = std::uint8_t(img[p * 3 + c]);
+}
+
+// The mean RGB of one image (the mean BRDF's entry), as mean_brdf computes it.
+void image_mean(std::span<const float> img, std::size_t pixels, float* out) {
+  double sum[3] = {0, 0, 0};
+  for (std::size_t p = 0; p < pixels; ++p)
+    for (int c = 0; c < 3; ++c) sum[c] += img[p * 3 + std::size_t(c)];
+  for (int c = 0; c < 3; ++c) out[c] = float(sum[c] / double(pixels));
+}
+
+}  // namespace
+
+std::vector<float> mean_brdf(const Btf& btf) {
+  const std::size_t pixels = std::size_t(btf.width()) * btf.height();
+  std::vector<float> out(btf.image_count() * 3);
+#pragma omp parallel for schedule(static)
+  for (std::size_t i = 0; i < btf.image_count(); ++i) {
+    image_mean({btf.data().data() + i * btf.image_floats(), btf.image_floats()}, pixels,
+               &out[i * 3]);
+  }
+  return out;
 }
 
 SampleSet make_sample_set(const Btf& btf) {
-  SampleSet s;
-  s.width = btf.width();
-  s.height = btf.height();
-  s.lights = btf.lights().size();
-  s.views = btf.views().size();
-  const std::size_t pixels = s.pixels();
-
   float lo = std::numeric_limits<float>::infinity(), hi = -lo;
   for (float v : btf.data()) {
     if (!std::isfinite(v))
@@ -77,32 +140,22 @@ SampleSet make_sample_set(const Btf& btf) {
     lo = std::min(lo, v);
     hi = std::max(hi, v);
   }
-  // Units (docs/ALGORITHM.md): pixels; the angular sampling step of each direction set;
-  // 8-bit levels for LDR data, 1/255 of the data's range for HDR.
-  const double light_unit = angular_sampling_step(btf.lights());
-  const double view_unit = angular_sampling_step(btf.views());
-  double colour_unit = 1.0;
-  if (btf.format() == SampleFormat::kHdr) colour_unit = hi > lo ? double(hi - lo) / 255.0 : 1.0;
-  s.scaling.unit = {1.0,       1.0,         light_unit,  light_unit, view_unit,
-                    view_unit, colour_unit, colour_unit, colour_unit};
-
-  for (const Direction& d : btf.lights()) {
-    const OnionSlice o = to_onion_slice(d);
-    s.light_ab.push_back({o.alpha / light_unit, o.beta / light_unit});
-  }
-  for (const Direction& d : btf.views()) {
-    const OnionSlice o = to_onion_slice(d);
-    s.view_ab.push_back({o.alpha / view_unit, o.beta / view_unit});
-  }
-
+  SampleSet s =
+      sample_frame(btf.lights(), btf.views(), btf.width(), btf.height(), btf.format(), lo, hi);
+  const std::size_t pixels = s.pixels();
   s.mean_brdf = mean_brdf(btf);
-  // The residuals take as much memory again as the tile itself.
-  limits::check_memory(double(s.size()) * 24.0,
-                       fmt::format("fitting a {}x{} tile of {} lights x {} views", s.width,
-                                   s.height, s.lights, s.views),
-                       "fit a smaller tile (--tile)");
+  const bool bytes = btf.format() == SampleFormat::kLdr8 && whole_levels(btf.data());
+  check_sample_memory(s, bytes ? 4.0 : 13.0);
+  if (bytes) {
+    s.levels.resize(s.size() * 3);
+#pragma omp parallel for schedule(static)
+    for (std::size_t l = 0; l < s.lights; ++l)
+      for (std::size_t v = 0; v < s.views; ++v)
+        store_levels(s, l, v, {btf.image(l, v), btf.image_floats()});
+    return s;
+  }
   s.residual.resize(s.size() * 3);
-  const float inv_unit = float(1.0 / colour_unit);
+  const float inv_unit = s.inv_colour_unit;
 #pragma omp parallel for schedule(static)
   for (std::size_t l = 0; l < s.lights; ++l)
     for (std::size_t v = 0; v < s.views; ++v) {
@@ -112,6 +165,57 @@ SampleSet make_sample_set(const Btf& btf) {
         for (int c = 0; c < 3; ++c)
           s.residual[s.index(p, l, v) * 3 + c] = (img[p * 3 + c] - mean[c]) * inv_unit;
     }
+  return s;
+}
+
+namespace {
+
+// tile_content_hash (provenance.hpp) of the tile a sample set of levels holds: its images in
+// order, each gathered from the sample order one light at a time.
+std::uint64_t levels_content_hash(const SampleSet& s) {
+  const std::size_t pixels = s.pixels(), nv = s.views;
+  std::vector<std::uint8_t> light(nv * pixels * 3);
+  std::vector<float> values(pixels * 3);
+  std::uint64_t h = kContentHashBasis;
+  for (std::size_t l = 0; l < s.lights; ++l) {
+#pragma omp parallel for schedule(static)
+    for (std::size_t p = 0; p < pixels; ++p)
+      for (std::size_t v = 0; v < nv; ++v)
+        for (std::size_t c = 0; c < 3; ++c)
+          light[(v * pixels + p) * 3 + c] = s.levels[s.index(p, l, v) * 3 + c];
+    for (std::size_t v = 0; v < nv; ++v) {
+      const std::uint8_t* img = &light[v * pixels * 3];
+      for (std::size_t k = 0; k < pixels * 3; ++k) values[k] = float(img[k]);
+      h = content_hash_add(h, values);
+    }
+  }
+  return h;
+}
+
+}  // namespace
+
+SampleSet read_sample_set(const BtfSource& source, const Tile& tile, std::uint64_t* content_hash) {
+  const BtfInfo& info = source.info();
+  if (info.format != SampleFormat::kLdr8) {
+    const Btf btf = source.load(tile);
+    if (content_hash) *content_hash = tile_content_hash(btf);
+    return make_sample_set(btf);
+  }
+  const Tile t = tile.empty() ? Tile{0, 0, info.width, info.height} : tile;
+  SampleSet s = sample_frame(info.lights, info.views, t.width, t.height, info.format, 0, 0);
+  check_sample_memory(s, 4.0);
+  s.levels.resize(s.size() * 3);
+  s.mean_brdf.resize(s.lights * s.views * 3);
+  const std::size_t nv = s.views;
+  source.read_tiles(t, 0, s.lights * nv, [&](std::size_t i, std::span<const float> img) {
+    if (!whole_levels(img))
+      throw Error(Error::Kind::kFormat,
+                  fmt::format("image '{}' of {} holds a value that is not an 8-bit level",
+                              source.image_name(i / nv, i % nv), info.path.string()));
+    image_mean(img, s.pixels(), &s.mean_brdf[i * 3]);
+    store_levels(s, i / nv, i % nv, img);
+  });
+  if (content_hash) *content_hash = levels_content_hash(s);
   return s;
 }
 
@@ -129,7 +233,7 @@ ProductMixture initial_mixture(const SampleSet& s, std::size_t components, std::
   const double padded = double((components + 15) / 16 * 16);
   limits::check_memory(double(s.pixels()) * padded * 12.0 +
                            17.0 * double(s.lights + s.views + 6) * padded * 8.0 +
-                           double(s.size()) * 24.0,
+                           double(s.size()) * double(s.bytes_per_sample() + 1),
                        fmt::format("fitting M = {} components to a {}x{} tile of {} lights x {} "
                                    "views",
                                    components, s.width, s.height, s.lights, s.views),

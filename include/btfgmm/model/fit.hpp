@@ -81,10 +81,20 @@ FitRequest resume_request(const std::filesystem::path& path);
 FitRequest continue_request(const std::filesystem::path& path, const std::string& input,
                             int iterations, const std::string& output);
 
+// The tile a fit holds, without its values.
+struct FitTile {
+  DirectionSet lights, views;
+  Tile origin;  // where it was cut from its images (x, y, width, height)
+  SampleFormat format = SampleFormat::kLdr8;
+  std::size_t samples() const {
+    return lights.size() * views.size() * std::size_t(origin.width) * std::size_t(origin.height);
+  }
+};
+
 // What run_fit tells as it goes (the library prints nothing).
 struct FitObserver {
   // The tile is in memory (for a resume: the very data of the checkpoint); EM starts next.
-  std::function<void(const Btf& tile)> started;
+  std::function<void(const FitTile& tile)> started;
   EmCallback iteration;  // after every EM iteration, as fit_em's progress
 };
 

@@ -9,6 +9,7 @@
 
 #include "btfgmm/core/btf.hpp"
 #include "btfgmm/core/directions.hpp"
+#include "btfgmm/io/dataset.hpp"
 #include "btfgmm/model/mixture.hpp"
 
 namespace btfgmm {
@@ -29,14 +30,18 @@ double angular_sampling_step(const DirectionSet& set);
 std::vector<float> mean_brdf(const Btf& btf);
 
 // The residual sample set (docs/ALGORITHM.md, "The mean BRDF and the sample set") without N x 9
-// numbers: the residual colour of every (pixel, light, view) in model units, ordered pixel-major,
-// then light, then view; x, y and the angles are implied by the indices and tabulated once.
+// numbers: the colour of every (pixel, light, view), ordered pixel-major, then light, then
+// view; x, y and the angles are implied by the indices and tabulated once. 8-bit data is held
+// as its levels (3 bytes a sample) and its residual, level - mean BRDF, computed where it is
+// used; other data as residuals in model units (12 bytes a sample).
 struct SampleSet {
   int width = 0, height = 0;
   std::size_t lights = 0, views = 0;
   VariableScaling scaling;
   std::vector<float> mean_brdf;                 // ni * nv * 3, in the data's scale
-  std::vector<float> residual;                  // N * 3, model units
+  std::vector<std::uint8_t> levels;             // 8-bit data: N * 3 levels (else empty)
+  std::vector<float> residual;                  // other data: N * 3, model units
+  float inv_colour_unit = 1.0f;                 // 1 / the colour unit, for `levels`
   std::vector<std::array<double, 2>> light_ab;  // (alpha, beta) per light, model units
   std::vector<std::array<double, 2>> view_ab;   // (alpha, beta) per view, model units
 
@@ -46,13 +51,30 @@ struct SampleSet {
   std::size_t index(std::size_t pixel, std::size_t light, std::size_t view) const {
     return (pixel * lights + light) * views + view;
   }
+  // The residual colour (model units) of sample i, channel c.
+  float residual_of(std::size_t i, int c) const {
+    if (levels.empty()) return residual[i * 3 + std::size_t(c)];
+    const std::size_t image = (i / views) % lights * views + i % views;
+    return (float(levels[i * 3 + std::size_t(c)]) - mean_brdf[image * 3 + std::size_t(c)]) *
+           inv_colour_unit;
+  }
+  // The residual colours of the views of one (pixel, light) block, into out (nv * 3).
+  void block_residuals(std::size_t pixel, std::size_t light, float* out) const;
   // The nine variables of one sample, in model units.
   std::array<double, kVariables> sample(std::size_t i) const;
+  // Bytes held per sample (3 for 8-bit data, 12 for other data).
+  std::size_t bytes_per_sample() const { return levels.empty() ? 12 : 3; }
 };
 
 // Builds the sample set of a BTF: mean BRDF, scaling, residuals. Throws Error(kFormat) on a
 // non-finite value.
 SampleSet make_sample_set(const Btf& btf);
+
+// The sample set of a tile of `source` read image by image, never holding the tile as floats
+// (8-bit data: 3 bytes a sample at most, beside what does not grow with the tile), the same
+// as make_sample_set(source.load(tile)). *content_hash receives tile_content_hash of that
+// tile (provenance.hpp). Throws as BtfSource::load and make_sample_set.
+SampleSet read_sample_set(const BtfSource& source, const Tile& tile, std::uint64_t* content_hash);
 
 // Random initialisation (seeded): means at M distinct random samples, variances the
 // variance of each variable over the sample set divided by M^(1/3), equal weights.
