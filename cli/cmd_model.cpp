@@ -24,6 +24,7 @@
 #include "btfgmm/model/predict.hpp"
 #include "cli_util.hpp"
 #include "commands.hpp"
+#include "mpi_processes.hpp"
 #include "provenance_text.hpp"
 #include "stop_signals.hpp"
 #include "tile_option.hpp"
@@ -277,14 +278,19 @@ std::optional<IterationLog> open_iteration_log(const FitOptions& o, const btfgmm
   return log;
 }
 
-void run_fit(const FitOptions& o) {
-  if (o.method != btfgmm::kMixtureMethod) return run_method_fit(o);
+// The mixture's fit, in this process alone or as one of `processes` (only process 0 prints
+// and writes files).
+void run_mixture_fit(const FitOptions& options,
+                     const std::shared_ptr<btfgmm::Communicator>& processes) {
+  FitOptions o = options;
+  o.quiet = o.quiet || (processes && processes->rank() != 0);
   if (o.clusters != 0 || o.degree != 0)
     throw Error(Error::Kind::kArgument,
                 fmt::format("{} applies to {} only, not to the Gaussian mixture; leave it out",
                             o.clusters ? "--clusters" : "--degree",
                             o.clusters ? "--method lpca" : "--method plm-rf"));
   btfgmm::FitRequest r = fit_request(o);
+  r.processes = processes;
   const bool resumed = r.resume && !r.resume->finished_model;
   check_output_file(r.output, o.overwrite || resumed);
   if (!r.checkpoint.empty()) check_output_file(r.checkpoint, true);
@@ -322,6 +328,30 @@ void run_fit(const FitOptions& o) {
     std::exit(130);
   }
   if (!o.quiet) print_written(r.output, fit, start);
+}
+
+// An MPI job (mpirun) fits the mixture over its processes; an error in one ends them all.
+void run_fit(const FitOptions& o) {
+  const std::shared_ptr<btfgmm::Communicator> processes = job_processes();
+  if (o.method != btfgmm::kMixtureMethod) {
+    if (processes && processes->size() > 1)
+      throw Error(Error::Kind::kArgument,
+                  fmt::format("--method {} runs in one process; start it without mpirun (only "
+                              "the Gaussian mixture's EM is split over processes)",
+                              o.method));
+    return run_method_fit(o);
+  }
+  if (!processes || processes->size() == 1) return run_mixture_fit(o, processes);
+  try {
+    run_mixture_fit(o, processes);
+  } catch (const std::exception& e) {
+    fmt::print(stderr,
+               "btfgmm: error: process {} of {}: {}\nbtfgmm: ending every process of "
+               "the job; a checkpoint already written is whole (continue with fit --resume)\n",
+               processes->rank(), processes->size(), e.what());
+    end_job_on_error(1);
+    throw;
+  }
 }
 
 // ---- decode ------------------------------------------------------------------------------

@@ -50,6 +50,9 @@ struct Tables {
   std::size_t padded_chunks = 0;
   std::vector<float> v_max;                         // nv x padded_chunks
   std::array<std::vector<float>, 3> lo, hi, h_max;  // padded_chunks each
+  // For the spatial sums: the minimum-image distance of each column x and row y to each
+  // component's mean x and y (W x stride, H x stride).
+  std::vector<double> dx, dy;
 };
 
 // Per-thread work space of the E pass.

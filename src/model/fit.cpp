@@ -73,7 +73,7 @@ LoadedTile load_tile(const FitRequest& r) {
   const BtfInfo& info = src->info();
   LoadedTile t;
   t.data.source = {r.input, info.width, info.height};
-  t.samples = read_sample_set(*src, r.tile, &t.data.content_hash);
+  t.samples = read_sample_set(*src, r.tile, &t.data.content_hash, r.processes);
   const Tile origin = r.tile.empty() ? Tile{0, 0, info.width, info.height} : r.tile;
   t.tile = {info.lights, info.views, origin, info.format};
   return t;
@@ -88,7 +88,8 @@ std::vector<std::pair<std::string, std::string>> settings_record(const FitReques
           {"epsilon", fmt::format("{:g}", r.config.em.epsilon)},
           {"seed", fmt::to_string(r.config.seed)},
           {"precision", r.precision == Precision::kF16 ? "f16" : "f32"},
-          {"threads", fmt::to_string(threads)}};
+          {"threads", fmt::to_string(threads)},
+          {"processes", fmt::to_string(r.processes ? r.processes->size() : 1)}};
 }
 
 // What a checkpoint of this request holds besides the state: the fit's inputs and settings,
@@ -145,9 +146,14 @@ void check_resume(const FitResume& resume, const FitCheckpoint& now) {
                               what, resume.path, s.name, s.was, s.now));
 }
 
+// Whether this process writes the fit's files: process 0 of a fit over several.
+bool writes_files(const FitRequest& r) {
+  return !r.processes || r.processes->rank() == 0;
+}
+
 // Saves the state to request.checkpoint every checkpoint_every iterations (none without one).
 EmStateCallback periodic_checkpoints(const FitRequest& r, const FitCheckpoint& job) {
-  if (r.checkpoint.empty()) return {};
+  if (r.checkpoint.empty() || !writes_files(r)) return {};
   return [&r, &job](const ProductMixture& mix, const EmResult& result) {
     if (result.iterations % std::max(1, r.checkpoint_every) != 0) return;
     FitCheckpoint k = job;
@@ -163,7 +169,7 @@ FitOutcome save_interrupted(const FitRequest& r, FitCheckpoint k, FitState state
   out.iterations = state.result.iterations;
   out.checkpoint = r.checkpoint.empty() ? r.output + ".ckpt" : r.checkpoint;
   k.state = std::move(state);
-  save_checkpoint(k, out.checkpoint);
+  if (writes_files(r)) save_checkpoint(k, out.checkpoint);
   return out;
 }
 
@@ -181,13 +187,15 @@ void record_provenance(const FitRequest& r, const FitCheckpoint& job, DataFinger
 // Finished: the model file, then the checkpoint goes (the model holds the fit's result).
 FitOutcome save_finished(const FitRequest& r, BtfModel model) {
   model.precision = r.precision;
-  save_model(model, r.output);
-  if (!r.checkpoint.empty()) {
-    std::error_code ec;
-    fs::remove(r.checkpoint, ec);
-  }
   FitOutcome out;
-  out.file_bytes = fs::file_size(r.output);
+  if (writes_files(r)) {
+    save_model(model, r.output);
+    if (!r.checkpoint.empty()) {
+      std::error_code ec;
+      fs::remove(r.checkpoint, ec);
+    }
+    out.file_bytes = fs::file_size(r.output);
+  }
   out.model = std::move(model);
   return out;
 }

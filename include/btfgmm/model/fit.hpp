@@ -12,6 +12,7 @@
 #include <string>
 
 #include "btfgmm/core/btf.hpp"
+#include "btfgmm/core/communicator.hpp"
 #include "btfgmm/io/dataset.hpp"
 #include "btfgmm/model/checkpoint.hpp"
 #include "btfgmm/model/em.hpp"
@@ -61,6 +62,10 @@ struct FitRequest {
   // written.
   std::string checkpoint;
   int checkpoint_every = 1;
+  // The processes of a fit over several (an MPI job; core/communicator.hpp): each reads and
+  // fits its share of the lights, process 0 writes the checkpoints and the model, and the
+  // model is that of a fit in one process, bit for bit. Null: this process alone.
+  std::shared_ptr<Communicator> processes;
   // Continue this fit (see resume_request, continue_request); the tile, M, seed and
   // precision above must be the checkpoint's, the data the same, and the iterations at least
   // those already run (more go on to that many; epsilon may change).
@@ -110,6 +115,8 @@ struct FitOutcome {
   std::uint64_t file_bytes = 0;
 };
 
+// With request.processes, every process calls run_fit with the same request; only process 0
+// writes files (its outcome names them; the others' model is the same, file_bytes 0).
 // Loads the request's tile, checks a resume against it (Error(kArgument) when the data or
 // the settings are not the checkpoint's or the model's), fits (fit_model) with checkpoints as
 // requested, and writes the model, or on an interruption the checkpoint. Throws Error as the
