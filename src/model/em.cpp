@@ -7,14 +7,17 @@
 // + the three colour terms (the sample itself).
 // The tables are built once per iteration; a block is one (pixel, light) pair and its nv
 // views, whose responsibilities are folded at once into the statistics:
-//   per pixel, light and view: sum q            (x, y and the angles follow from these)
-//   per component:             sum q d, sum q d^2 with d = colour - previous mean.
-// Blocks are grouped into a fixed number of chunks of pixels whose statistics are reduced in
-// chunk order, so the result is the same for any number of threads.
+//   per view:        sum q                      (the view angles follow from these)
+//   per component:   sum q, sum q dx, q dx^2, q dy, q dy^2 (the pixel's minimum-image
+//                    distances), sum q d, sum q d^2 with d = colour - previous mean.
+// Each light's pixels are cut into a fixed number of chunks whose statistics are reduced in
+// chunk order to the light's 1 + 19 M numbers; the lights' are added in light order, over
+// every process of a distributed sample set (docs/SCALING.md). So the result is the same for
+// any number of threads and processes.
 //
 // Per iteration: the tables (make_tables), the E pass (e_pass: Eq. 2-4, the group passes of
-// em_group_pass.hpp), the sufficient statistics of every component (sufficient_statistics),
-// the M-step (Eq. 5-7, m_step in mixture.cpp) and the stop test.
+// em_group_pass.hpp; light_statistics), the lights combined (combine), the M-step (Eq. 5-7,
+// m_step in mixture.cpp) and the stop test.
 #include <omp.h>
 
 #include <algorithm>
