@@ -333,14 +333,16 @@ void chunk_pass(const SampleSet& s, const Tables& t, const std::vector<std::uint
 // mixture's order) sum q, the nine sums of q (x - mu_old) and the nine of q (x - mu_old)^2
 // (x, y as accumulated; the angles from this light and the views; the colours as accumulated).
 constexpr std::size_t kPerComponent = 1 + 2 * kVariables;
+// `qv`: the chunks' per-view sums, already reduced (sum_views).
 std::vector<double> light_statistics(const SampleSet& s, const Tables& t, const ProductMixture& mix,
-                                     std::size_t l, const std::vector<ChunkStats>& chunks) {
+                                     std::size_t l, const std::vector<ChunkStats>& chunks,
+                                     const std::vector<double>& qv) {
   const std::size_t st = t.stride;
-  ChunkStats sum(s.views, st);
+  ChunkStats sum(0, st);
+  sum.qv = qv;
   for (const ChunkStats& c : chunks) {
     for (std::size_t k = 0; k < st; ++k) sum.q[k] += c.q[k];
     for (std::size_t k = 0; k < sum.xy.size(); ++k) sum.xy[k] += c.xy[k];
-    for (std::size_t k = 0; k < sum.qv.size(); ++k) sum.qv[k] += c.qv[k];
     for (std::size_t k = 0; k < sum.c1.size(); ++k) sum.c1[k] += c.c1[k];
     for (std::size_t k = 0; k < sum.c2.size(); ++k) sum.c2[k] += c.c2[k];
     sum.ll += c.ll;
@@ -378,6 +380,18 @@ std::vector<double> light_statistics(const SampleSet& s, const Tables& t, const 
   return out;
 }
 
+// The chunks' per-view sums reduced in chunk order into qv, shared among the threads of the
+// E pass (an orphaned worksharing loop: called by every thread of its parallel region).
+void sum_views(const std::vector<ChunkStats>& chunks, std::vector<double>& qv) {
+  const auto n = std::ptrdiff_t(qv.size());
+#pragma omp for schedule(static)
+  for (std::ptrdiff_t k = 0; k < n; ++k) {
+    double a = 0.0;
+    for (const ChunkStats& c : chunks) a += c.qv[std::size_t(k)];
+    qv[std::size_t(k)] = a;
+  }
+}
+
 // One E pass, Eq. (2)-(4), over the lights this process holds, light by light, each in
 // kChunks chunks of pixels: returns each light's statistics (light_statistics; with `stats`
 // false, L's terms alone). Accumulation: float within a (pixel, light) block of nv samples
@@ -389,6 +403,7 @@ std::vector<std::vector<double>> e_pass(const SampleSet& s, const Tables& t,
                                         bool stats) {
   std::vector<std::vector<double>> lights;
   std::vector<ChunkStats> chunks(kChunks, ChunkStats(stats ? s.views : 0, stats ? t.stride : 0));
+  std::vector<double> qv(stats ? s.views * t.stride : 0);
   std::exception_ptr failure;
   std::atomic<bool> failed{false};
 #pragma omp parallel num_threads(threads)
@@ -408,11 +423,12 @@ std::vector<std::vector<double>> e_pass(const SampleSet& s, const Tables& t,
           failed = true;
         }
       }
+      if (stats) sum_views(chunks, qv);
 #pragma omp single
       {
         if (failed.load()) {
         } else if (stats) {
-          lights.push_back(light_statistics(s, t, mix, l, chunks));
+          lights.push_back(light_statistics(s, t, mix, l, chunks, qv));
         } else {
           double ll = 0.0;
           for (const ChunkStats& c : chunks) ll += c.ll;
