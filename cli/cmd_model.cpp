@@ -6,12 +6,15 @@
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
+#include <fstream>
 #include <iostream>
 #include <map>
 #include <memory>
 #include <optional>
 #include <span>
 #include <string>
+
+#include <unistd.h>
 
 #include "btfgmm/btfgmm.hpp"
 #include "btfgmm/core/text.hpp"
@@ -22,6 +25,7 @@
 #include "btfgmm/model/predict.hpp"
 #include "cli_util.hpp"
 #include "commands.hpp"
+#include "mpi_processes.hpp"
 #include "provenance_text.hpp"
 #include "stop_signals.hpp"
 #include "tile_option.hpp"
@@ -158,11 +162,10 @@ void choose_fit_tile(btfgmm::FitRequest& r, const std::string& tile, bool quiet)
   r.source = std::move(src);
 }
 
-void print_loaded(const btfgmm::Btf& btf, double seconds) {
-  const std::size_t n = btf.image_count() * std::size_t(btf.width()) * btf.height();
+void print_loaded(const btfgmm::FitTile& t, double seconds) {
   fmt::print(stderr, "loaded {}x{} pixels at ({}, {}) x {} lights x {} views = {} samples in {}\n",
-             btf.width(), btf.height(), btf.origin().x, btf.origin().y, btf.lights().size(),
-             btf.views().size(), n, human_seconds(seconds));
+             t.origin.width, t.origin.height, t.origin.x, t.origin.y, t.lights.size(),
+             t.views.size(), t.samples(), human_seconds(seconds));
 }
 
 // Where this run of a fit starts: after `iteration` iterations (0, or those of the fit it
@@ -172,6 +175,14 @@ struct RunStart {
   double seconds = 0.0;
 };
 
+// The memory this process holds now (its resident set, /proc/self/statm), 0 where unknown.
+double memory_in_use() {
+  std::ifstream statm("/proc/self/statm");
+  double pages = 0, resident = 0;
+  if (!(statm >> pages >> resident)) return 0.0;
+  return resident * double(sysconf(_SC_PAGESIZE));
+}
+
 // One EM iteration; the time left is estimated from this run's iterations. The first
 // iteration of a fit has no gain.
 void print_iteration(const btfgmm::EmProgress& p, const RunStart& start) {
@@ -179,9 +190,11 @@ void print_iteration(const btfgmm::EmProgress& p, const RunStart& start) {
   const std::string gain =
       std::isnan(p.relative_gain) ? std::string() : fmt::format("gain {:+.2e}", p.relative_gain);
   fmt::print(stderr,
-             "iteration {:>3}/{}  L = {:.6f}  {:<14}  components {} ({} dropped)  {}  ETA {}\n",
+             "iteration {:>3}/{}  L = {:.6f}  {:<14}  components {} ({} dropped)  {}  ETA {}  "
+             "memory {}\n",
              p.iteration, p.max_iterations, p.log_likelihood, gain, p.components, p.dropped,
-             human_seconds(p.seconds), human_seconds(per * (p.max_iterations - p.iteration)));
+             human_seconds(p.seconds), human_seconds(per * (p.max_iterations - p.iteration)),
+             human_bytes(memory_in_use()));
 }
 
 // The model written. Its L is of the parameters written, after the last M-step; each
@@ -231,7 +244,7 @@ void run_method_fit(const FitOptions& o) {
   const btfgmm::Tile tile = o.tile.empty() ? btfgmm::Tile{} : tile_option(*src, o.tile, o.quiet);
   btfgmm::FitProgress progress;
   if (!o.quiet) {
-    progress.started = [&](const btfgmm::Btf& btf) { print_loaded(btf, seconds_since(t0)); };
+    progress.started = [&](const btfgmm::FitTile& t) { print_loaded(t, seconds_since(t0)); };
     progress.progress = [&](double fraction, std::string_view stage) {
       fmt::print(stderr, "{} {:>5.1f}%  {}\n", o.method, 100.0 * fraction, stage);
     };
@@ -262,9 +275,14 @@ std::optional<IterationLog> open_iteration_log(const FitOptions& o, const btfgmm
   return log;
 }
 
-void run_fit(const FitOptions& o) {
-  if (o.method != btfgmm::kMixtureMethod) return run_method_fit(o);
+// The mixture's fit, in this process alone or as one of `processes` (only process 0 prints
+// and writes files).
+void run_mixture_fit(const FitOptions& options,
+                     const std::shared_ptr<btfgmm::Communicator>& processes) {
+  FitOptions o = options;
+  o.quiet = o.quiet || (processes && processes->rank() != 0);
   btfgmm::FitRequest r = fit_request(o);
+  r.processes = processes;
   const bool resumed = r.resume && !r.resume->finished_model;
   check_output_file(r.output, o.overwrite || resumed);
   if (!r.checkpoint.empty()) check_output_file(r.checkpoint, true);
@@ -279,8 +297,8 @@ void run_fit(const FitOptions& o) {
   std::optional<StopOnSignals> stop_on_signals;
   std::optional<IterationLog> log;
   btfgmm::FitObserver observer;
-  observer.started = [&](const btfgmm::Btf& btf) {
-    if (!o.quiet) print_loaded(btf, seconds_since(t0));
+  observer.started = [&](const btfgmm::FitTile& tile) {
+    if (!o.quiet) print_loaded(tile, seconds_since(t0));
     if (r.resume && !o.quiet)
       fmt::print(stderr, "{} {} after iteration {}\n", resumed ? "resuming from" : "continuing",
                  r.resume->path, start.iteration);
@@ -302,6 +320,30 @@ void run_fit(const FitOptions& o) {
     std::exit(130);
   }
   if (!o.quiet) print_written(r.output, fit, start);
+}
+
+// An MPI job (mpirun) fits the mixture over its processes; an error in one ends them all.
+void run_fit(const FitOptions& o) {
+  const std::shared_ptr<btfgmm::Communicator> processes = job_processes();
+  if (o.method != btfgmm::kMixtureMethod) {
+    if (processes && processes->size() > 1)
+      throw Error(Error::Kind::kArgument,
+                  fmt::format("--method {} runs in one process; start it without mpirun (only "
+                              "the Gaussian mixture's EM is split over processes)",
+                              o.method));
+    return run_method_fit(o);
+  }
+  if (!processes || processes->size() == 1) return run_mixture_fit(o, processes);
+  try {
+    run_mixture_fit(o, processes);
+  } catch (const std::exception& e) {
+    fmt::print(stderr,
+               "btfgmm: error: process {} of {}: {}\nbtfgmm: ending every process of "
+               "the job; a checkpoint already written is whole (continue with fit --resume)\n",
+               processes->rank(), processes->size(), e.what());
+    end_job_on_error(1);
+    throw;
+  }
 }
 
 // ---- decode ------------------------------------------------------------------------------

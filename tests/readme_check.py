@@ -31,21 +31,20 @@ SMALL_GENERATE = ["--lights", "spiral:9", "--views", "spiral:4", "--supersample"
 def command_lines(readme_text):
     """The README's commands, in order: each unindented line of its unlabelled code blocks, and
     each ```python block whole (as one entry starting with PYTHON_BLOCK)."""
-    lines, block, inside = [], None, False
+    lines, block, fence = [], [], None  # fence: None outside, else the opening's label
     for raw in readme_text.splitlines():
         if raw.startswith("```"):
-            if block is not None:
-                lines.append(PYTHON_BLOCK + "\n".join(block))
-                block = None
-            elif raw.strip() == "```python":
-                block = []
+            if fence is None:
+                fence, block = raw.strip()[3:], []
             else:
-                inside = not inside and raw.strip() == "```"
+                if fence == "python":
+                    lines.append(PYTHON_BLOCK + "\n".join(block))
+                fence = None
             continue
-        if block is not None:
+        if fence == "python":
             block.append(raw)
             continue
-        if not inside or not raw.strip() or raw[0].isspace() or raw.startswith("#"):
+        if fence != "" or not raw.strip() or raw[0].isspace() or raw.startswith("#"):
             continue
         lines.append(raw)
     return lines

@@ -290,7 +290,7 @@ TEST(Samples, MeanBrdfAndResidualsAreExact) {
           for (int x = 0; x < 4; ++x) sum += btf.at(l, v, x, y, c);
         EXPECT_NEAR(s.mean_brdf[(l * 4 + v) * 3 + c], sum / 12, 1e-4);
         const std::size_t p = 2 * 4 + 1;  // x = 1, y = 2
-        EXPECT_NEAR(s.residual[s.index(p, l, v) * 3 + c] + s.mean_brdf[(l * 4 + v) * 3 + c],
+        EXPECT_NEAR(s.residual_of(p, l, v, c) + s.mean_brdf[(l * 4 + v) * 3 + c],
                     btf.at(l, v, 1, 2, c), 1e-4);
       }
   // The 30-degree ring of 3 is 60 degrees apart, nearer than the 30 degrees to the pole? No:

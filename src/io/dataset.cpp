@@ -434,8 +434,10 @@ BtfSource BtfSource::open(const fs::path& path) {
   return src;
 }
 
-Btf BtfSource::load(const Tile& tile) const {
-  const BtfInfo& info = info_;
+namespace {
+
+// The tile asked for (empty: the whole image), checked to lie inside the images.
+Tile tile_inside(const BtfInfo& info, const Tile& tile) {
   const Tile t = tile.empty() ? Tile{0, 0, info.width, info.height} : tile;
   if (t.x < 0 || t.y < 0 || std::int64_t(t.x) + t.width > info.width ||
       std::int64_t(t.y) + t.height > info.height)
@@ -445,6 +447,14 @@ Btf BtfSource::load(const Tile& tile) const {
                             "y + height <= {}",
                             t.x, t.y, t.width, t.height, info.path.string(), info.width,
                             info.height, info.width, info.height));
+  return t;
+}
+
+}  // namespace
+
+Btf BtfSource::load(const Tile& tile) const {
+  const BtfInfo& info = info_;
+  const Tile t = tile_inside(info, tile);
   const std::size_t images = info.lights.size() * info.views.size();
   limits::check_memory(double(images) * t.width * t.height * 12.0,
                        fmt::format("loading a {}x{} tile of the {} images of {}", t.width, t.height,
@@ -453,8 +463,17 @@ Btf BtfSource::load(const Tile& tile) const {
   Btf btf(info.lights, info.views, t.width, t.height, info.format);
   btf.set_origin(t);
   const std::size_t nv = info.views.size();
-  const bool zip = info.layout == Layout::kBonnZip;
+  read_tiles(t, 0, images, [&](std::size_t i, std::span<const float> rgb) {
+    std::copy(rgb.begin(), rgb.end(), btf.image(i / nv, i % nv));
+  });
+  return btf;
+}
 
+void BtfSource::read_tiles(const Tile& tile, std::size_t first, std::size_t last,
+                           const TileSink& take) const {
+  const BtfInfo& info = info_;
+  const Tile t = tile_inside(info, tile);
+  const bool zip = info.layout == Layout::kBonnZip;
   auto store = [&](std::span<const std::uint8_t> bytes, const std::string& display, std::size_t i) {
     const ImageHeader h = decode_image_header(bytes, display);
     if (h.width != info.width || h.height != info.height || h.format != info.format)
@@ -464,26 +483,27 @@ Btf BtfSource::load(const Tile& tile) const {
                               display, h.width, h.height, to_string(h.format), info.width,
                               info.height, to_string(info.format)));
     const Image img = decode_image(bytes, display, t);
-    std::copy(img.rgb.begin(), img.rgb.end(), btf.image(i / nv, i % nv));
+    take(i, img.rgb);
   };
   if (zip) {
     parallel_each<Zip>(
-        names_.size(), [&] { return detail::open_zip(info.path); },
-        [&](Zip& z, std::size_t i) {
+        last - first, [&] { return detail::open_zip(info.path); },
+        [&](Zip& z, std::size_t k) {
+          const std::size_t i = first + k;
           const std::string display = entry_display(info.path, names_[i]);
           store(detail::read_zip_entry(z.get(), info.path, names_[i]), display, i);
         });
   } else {
     parallel_each<NoState>(
-        names_.size(), [] { return NoState{}; },
-        [&](NoState&, std::size_t i) {
+        last - first, [] { return NoState{}; },
+        [&](NoState&, std::size_t k) {
+          const std::size_t i = first + k;
           const fs::path p = info.path / names_[i];
           store(read_whole_file(p, "image", "it is not a BTF image; move it out of the folder",
                                 Error::Kind::kIo),
                 p.string(), i);
         });
   }
-  return btf;
 }
 
 }  // namespace btfgmm

@@ -92,7 +92,8 @@ std::unique_ptr<Representation> fit_representation(const FitOptions& o, const st
   if (!source) source = std::make_shared<const BtfSource>(BtfSource::open(input));
   const BtfInfo& info = source->info();
   const Btf btf = source->load(tile.empty() ? Tile{0, 0, info.width, info.height} : tile);
-  if (progress.started) progress.started(btf);
+  if (progress.started)
+    progress.started(FitTile{btf.lights(), btf.views(), btf.origin(), btf.format()});
   return fit_and_record(method, btf, s, fingerprint_of(btf, {input, info.width, info.height}));
 }
 

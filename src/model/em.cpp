@@ -7,24 +7,29 @@
 // + the three colour terms (the sample itself).
 // The tables are built once per iteration; a block is one (pixel, light) pair and its nv
 // views, whose responsibilities are folded at once into the statistics:
-//   per pixel, light and view: sum q            (x, y and the angles follow from these)
-//   per component:             sum q d, sum q d^2 with d = colour - previous mean.
-// Blocks are grouped into a fixed number of chunks of pixels whose statistics are reduced in
-// chunk order, so the result is the same for any number of threads.
+//   per view:        sum q                      (the view angles follow from these)
+//   per component:   sum q, sum q dx, q dx^2, q dy, q dy^2 (the pixel's minimum-image
+//                    distances), sum q d, sum q d^2 with d = colour - previous mean.
+// Each light's pixels are cut into a fixed number of chunks whose statistics are reduced in
+// chunk order to the light's 1 + 19 M numbers; the lights' are added in light order, over
+// every process of a distributed sample set (docs/SCALING.md). So the result is the same for
+// any number of threads and processes.
 //
 // Per iteration: the tables (make_tables), the E pass (e_pass: Eq. 2-4, the group passes of
-// em_group_pass.hpp), the sufficient statistics of every component (sufficient_statistics),
-// the M-step (Eq. 5-7, m_step in mixture.cpp) and the stop test.
+// em_group_pass.hpp; light_statistics), the lights combined (combine), the M-step (Eq. 5-7,
+// m_step in mixture.cpp) and the stop test.
 #include <omp.h>
 
 #include <algorithm>
 #include <array>
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <cstdint>
 #include <exception>
 #include <limits>
 
+#include "btfgmm/core/communicator.hpp"
 #include "btfgmm/core/text.hpp"
 #include "btfgmm/model/em.hpp"
 #include "btfgmm/model/samples.hpp"
@@ -125,6 +130,22 @@ void tabulate_chunk_bounds(Tables& t, const SampleSet& s) {
   }
 }
 
+// The minimum-image distances of every column x and row y of the tile to each component's
+// mean x and y (dx: W x stride, dy: H x stride; 0 for padding), for the spatial sums.
+void tabulate_pixel_offsets(Tables& t, const SampleSet& s, const ProductMixture& mix) {
+  const std::size_t st = t.stride;
+  const detail::Periods periods = tile_periods(s);
+  t.dx.assign(std::size_t(s.width) * st, 0.0);
+  t.dy.assign(std::size_t(s.height) * st, 0.0);
+  for (std::size_t k = 0; k < t.m; ++k) {
+    const auto& mu = mix.mean[t.order[k]];
+    for (std::size_t x = 0; x < std::size_t(s.width); ++x)
+      t.dx[x * st + k] = detail::wrapped_difference(double(x) - mu[0], periods[0]);
+    for (std::size_t y = 0; y < std::size_t(s.height); ++y)
+      t.dy[y * st + k] = detail::wrapped_difference(double(y) - mu[1], periods[1]);
+  }
+}
+
 Tables make_tables(const SampleSet& s, const ProductMixture& mix) {
   Tables t;
   const std::size_t m_count = t.m = mix.size();
@@ -136,26 +157,9 @@ Tables make_tables(const SampleSet& s, const ProductMixture& mix) {
   t.skip_margin = float(std::log(double(m_count)) + 17.5);
   tabulate_densities(t, s, mix);
   tabulate_chunk_bounds(t, s);
+  tabulate_pixel_offsets(t, s, mix);
   return t;
 }
-
-// The statistics of one chunk of pixels (double), reduced in chunk order.
-struct ChunkStats {
-  std::vector<double> ql, qv, c1, c2;  // ni x stride, nv x stride, 3 x stride, 3 x stride
-  ChunkStats(const SampleSet& s, std::size_t st)
-      : ql(s.lights * st, 0.0), qv(s.views * st, 0.0), c1(3 * st, 0.0), c2(3 * st, 0.0) {}
-};
-
-// What the E pass accumulates: sum q per pixel (qp, P x stride) and the statistics of each
-// chunk of pixels.
-struct GridStatistics {
-  std::vector<double> qp;
-  std::vector<ChunkStats> chunks;
-  GridStatistics(const SampleSet& s, std::size_t st) : qp(s.pixels() * st, 0.0) {
-    chunks.reserve(kChunks);  // each chunk's zeros written in place, not copied from a first
-    for (std::size_t c = 0; c < kChunks; ++c) chunks.emplace_back(s, st);
-  }
-};
 
 // Morton key of a colour (10 bits a channel over the box lo..hi).
 std::uint32_t colour_key(const float* rgb, const float lo[3], const float span[3]) {
@@ -168,6 +172,17 @@ std::uint32_t colour_key(const float* rgb, const float lo[3], const float span[3
   return k;
 }
 
+// The box of every process's residual colours from each one's (lo, hi).
+void colour_box_of_all(const SampleSet& s, float lo[3], float hi[3]) {
+  if (!s.processes) return;
+  const float mine[6] = {lo[0], lo[1], lo[2], hi[0], hi[1], hi[2]};
+  for (const std::vector<float>& r : all_gather_values<float>(*s.processes, mine))
+    for (int c = 0; c < 3; ++c) {
+      lo[c] = std::min(lo[c], r.at(std::size_t(c)));
+      hi[c] = std::max(hi[c], r.at(3 + std::size_t(c)));
+    }
+}
+
 // The views of every (pixel, light) block in the order of their residual colours (a Morton
 // key): the four samples of a group then have similar colours, so the components near one
 // of them are near all four and the skip of group_pass drops more vectors (on generated data
@@ -175,25 +190,38 @@ std::uint32_t colour_key(const float* rgb, const float lo[3], const float span[3
 // summation order, and the order is a function of the data alone. One byte a sample; sets of
 // more than 256 views keep their own order (empty result).
 std::vector<std::uint8_t> view_order(const SampleSet& s) {
-  const std::size_t nv = s.views, blocks = s.pixels() * s.lights;
+  const std::size_t nv = s.views, held = s.held_lights(), blocks = s.pixels() * held;
   if (nv > 256 || nv < 2) return {};
+  const auto n = std::ptrdiff_t(blocks);
+  auto block = [&](std::ptrdiff_t b, float* r) {
+    s.block_residuals(std::size_t(b) / held, s.first_light + std::size_t(b) % held, r);
+  };
   float lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
-  for (std::size_t i = 0; i < s.size(); ++i)
-    for (int c = 0; c < 3; ++c) {
-      lo[c] = std::min(lo[c], s.residual[i * 3 + std::size_t(c)]);
-      hi[c] = std::max(hi[c], s.residual[i * 3 + std::size_t(c)]);
+#pragma omp parallel reduction(min : lo[:3]) reduction(max : hi[:3])
+  {
+    std::vector<float> r(nv * 3);
+#pragma omp for schedule(static)
+    for (std::ptrdiff_t b = 0; b < n; ++b) {
+      block(b, r.data());
+      for (std::size_t k = 0; k < nv * 3; ++k) {
+        lo[k % 3] = std::min(lo[k % 3], r[k]);
+        hi[k % 3] = std::max(hi[k % 3], r[k]);
+      }
     }
+  }
+  colour_box_of_all(s, lo, hi);
   const float span[3] = {hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]};
   std::vector<std::uint8_t> order(s.size());
-  const auto n = std::ptrdiff_t(blocks);
 #pragma omp parallel
   {
     std::vector<std::pair<std::uint32_t, std::uint8_t>> key(nv);
+    std::vector<float> r(nv * 3);
 #pragma omp for schedule(static)
     for (std::ptrdiff_t b = 0; b < n; ++b) {
       const std::size_t first = std::size_t(b) * nv;
+      block(b, r.data());
       for (std::size_t v = 0; v < nv; ++v)
-        key[v] = {colour_key(&s.residual[(first + v) * 3], lo, span), std::uint8_t(v)};
+        key[v] = {colour_key(&r[v * 3], lo, span), std::uint8_t(v)};
       std::sort(key.begin(), key.end());
       for (std::size_t v = 0; v < nv; ++v) order[first + v] = key[v].second;
     }
@@ -225,6 +253,7 @@ std::vector<std::uint8_t> view_order(const SampleSet& s) {
   const float* lrow = &t.l[l * st];
 #pragma omp simd
   for (std::size_t m = 0; m < st; ++m) w.sl[m] = srow[m] + lrow[m];
+  s.block_residuals(p, l, w.residual.data());
   if (stats) {
     std::fill(w.a0.begin(), w.a0.end(), 0.0f);
     std::fill(w.a1.begin(), w.a1.end(), 0.0f);
@@ -233,24 +262,44 @@ std::vector<std::uint8_t> view_order(const SampleSet& s) {
   const std::uint32_t* views = block_views(s, order, p, l, w.view_list.data());
   std::size_t v = 0;
 #if defined(__AVX512F__)
-  v = detail::block_pass_avx512(t, s, p, l, views, w, stats, ll);
+  v = detail::block_pass_avx512(t, nv, views, w, stats, ll);
 #endif
-  for (; v + kGroup <= nv; v += kGroup)
-    ll += detail::group_pass<kGroup>(t, s, p, l, views + v, w, stats);
-  for (; v < nv; ++v) ll += detail::group_pass<1>(t, s, p, l, views + v, w, stats);
+  for (; v + kGroup <= nv; v += kGroup) ll += detail::group_pass<kGroup>(t, views + v, w, stats);
+  for (; v < nv; ++v) ll += detail::group_pass<1>(t, views + v, w, stats);
 }
 
-// The block's accumulators (float) into the per-pixel sums qp and the chunk's statistics
-// (double).
-[[gnu::always_inline]] inline void add_block_statistics(const Tables& t, std::size_t p,
-                                                        std::size_t l, const Workspace& w,
-                                                        std::vector<double>& qp, ChunkStats& cs) {
+// The statistics of one chunk of pixels of one light (double), reduced in chunk order: sum q
+// (q), the sums of q dx, q dx^2, q dy, q dy^2 (xy, 4 x stride; dx, dy the pixel's minimum-image
+// distance to the component's mean), sum q per view (qv, nv x stride), sum q d and q d^2 of
+// the colours (c1, c2, 3 x stride), and the samples' terms of L (ll).
+struct ChunkStats {
+  std::vector<double> q, xy, qv, c1, c2;
+  double ll = 0.0;
+  ChunkStats(std::size_t views, std::size_t st)
+      : q(st, 0.0), xy(4 * st, 0.0), qv(views * st, 0.0), c1(3 * st, 0.0), c2(3 * st, 0.0) {}
+  void clear() {
+    for (auto* v : {&q, &xy, &qv, &c1, &c2}) std::fill(v->begin(), v->end(), 0.0);
+    ll = 0.0;
+  }
+};
+
+// Per view, float holds the sums of at most this many pixels' responsibilities before they go
+// to double.
+constexpr std::size_t kViewFlush = 32;
+
+// The block's accumulators (float) into the chunk's statistics (double): sum q, and with the
+// pixel's distances dx, dy (stride each) the spatial sums.
+[[gnu::always_inline]] inline void add_block_statistics(const Tables& t, const double* dx,
+                                                        const double* dy, const Workspace& w,
+                                                        ChunkStats& cs) {
   const std::size_t st = t.stride;
-  double* qpp = &qp[p * st];
-  double* qll = &cs.ql[l * st];
   for (std::size_t m = 0; m < st; ++m) {
-    qpp[m] += double(w.a0[m]);
-    qll[m] += double(w.a0[m]);
+    const double q = double(w.a0[m]);
+    cs.q[m] += q;
+    cs.xy[m] += q * dx[m];
+    cs.xy[st + m] += q * dx[m] * dx[m];
+    cs.xy[2 * st + m] += q * dy[m];
+    cs.xy[3 * st + m] += q * dy[m] * dy[m];
   }
   for (std::size_t k = 0; k < 3 * st; ++k) {
     cs.c1[k] += double(w.a1[k]);
@@ -258,102 +307,194 @@ std::vector<std::uint8_t> view_order(const SampleSet& s) {
   }
 }
 
-// The pixels of chunk c: every (pixel, light) block. Returns the sum of their samples' terms
-// of L; with `cs`, folds the responsibilities into qp and cs.
-double chunk_pass(const SampleSet& s, const Tables& t, const std::vector<std::uint8_t>& order,
-                  std::size_t c, Workspace& w, std::vector<double>* qp, ChunkStats* cs) {
-  const std::size_t ni = s.lights, nv = s.views, pixels = s.pixels(), st = t.stride;
-  const bool stats = cs != nullptr;
-  double ll = 0.0;
-  for (std::size_t p = c * pixels / kChunks; p < (c + 1) * pixels / kChunks; ++p) {
-    if (stats) std::fill(w.qv.begin(), w.qv.end(), 0.0f);
-    for (std::size_t l = 0; l < ni; ++l) {
-      block_pass(s, t, order, p, l, w, stats, ll);
-      if (stats) add_block_statistics(t, p, l, w, *qp, *cs);
-    }
-    if (stats)
-      for (std::size_t k = 0; k < nv * st; ++k) cs->qv[k] += double(w.qv[k]);
-  }
-  return ll;
+// The per-view sums of the workspace (float) into the chunk's (double), and cleared.
+void flush_views(Workspace& w, ChunkStats& cs) {
+  for (std::size_t k = 0; k < w.qv.size(); ++k) cs.qv[k] += double(w.qv[k]);
+  std::fill(w.qv.begin(), w.qv.end(), 0.0f);
 }
 
-// One E pass, Eq. (2)-(4): returns L, Eq. (3). With `g`, folds the responsibilities into it.
-// Accumulation: float within a (pixel, light) block of nv samples (and per view within a
-// pixel's ni blocks), double beyond, in a fixed order per chunk.
-double e_pass(const SampleSet& s, const Tables& t, const std::vector<std::uint8_t>& order,
-              int threads, GridStatistics* g) {
-  std::vector<double> chunk_ll(kChunks, 0.0);
-  std::exception_ptr failure;
-#pragma omp parallel num_threads(threads)
-  {
-    const detail::FlushDenormals flush;
-    Workspace w(t.stride, s.views, kGroup);
-#pragma omp for schedule(dynamic, 1)
-    for (std::size_t c = 0; c < kChunks; ++c) {
-      try {
-        chunk_ll[c] =
-            chunk_pass(s, t, order, c, w, g ? &g->qp : nullptr, g ? &g->chunks[c] : nullptr);
-      } catch (...) {
-#pragma omp critical(btfgmm_em_failure)
-        if (!failure) failure = std::current_exception();
-      }
-    }
+// The pixels of chunk c of light l: one (pixel, light) block each. Adds the sum of their
+// samples' terms of L to cs.ll; with `stats`, folds the responsibilities into cs.
+void chunk_pass(const SampleSet& s, const Tables& t, const std::vector<std::uint8_t>& order,
+                std::size_t l, std::size_t c, Workspace& w, bool stats, ChunkStats& cs) {
+  const std::size_t pixels = s.pixels(), st = t.stride, width = std::size_t(s.width);
+  const std::size_t first = c * pixels / kChunks, last = (c + 1) * pixels / kChunks;
+  if (stats) std::fill(w.qv.begin(), w.qv.end(), 0.0f);
+  for (std::size_t p = first; p < last; ++p) {
+    block_pass(s, t, order, p, l, w, stats, cs.ll);
+    if (!stats) continue;
+    add_block_statistics(t, &t.dx[(p % width) * st], &t.dy[(p / width) * st], w, cs);
+    if ((p - first + 1) % kViewFlush == 0 || p + 1 == last) flush_views(w, cs);
   }
-  if (failure) std::rethrow_exception(failure);
-  double total = 0.0;
-  for (double v : chunk_ll) total += v;  // fixed order
-  return total / double(s.size());
 }
 
-// The sufficient statistics of the M-step (mixture_internal.hpp) from the E pass's: the
-// chunks reduced in order, then per component sum q, and the sums of q (x - mu_old),
-// q (x - mu_old)^2 for each variable (x, y from the pixels, their minimum images; the angles
-// from the lights and views; the colours as accumulated).
-detail::SufficientStatistics sufficient_statistics(const SampleSet& s, const Tables& t,
-                                                   const ProductMixture& mix,
-                                                   const GridStatistics& g) {
-  const std::size_t st = t.stride, pixels = s.pixels(), ni = s.lights, nv = s.views;
-  ChunkStats sum(s, st);
-  for (const auto& c : g.chunks) {
-    for (std::size_t k = 0; k < sum.ql.size(); ++k) sum.ql[k] += c.ql[k];
-    for (std::size_t k = 0; k < sum.qv.size(); ++k) sum.qv[k] += c.qv[k];
+// What one light contributes to the sufficient statistics of the M-step, from its chunks'
+// (reduced in chunk order): kLightValues numbers, L's terms first, then per component (in the
+// mixture's order) sum q, the nine sums of q (x - mu_old) and the nine of q (x - mu_old)^2
+// (x, y as accumulated; the angles from this light and the views; the colours as accumulated).
+constexpr std::size_t kPerComponent = 1 + 2 * kVariables;
+// `qv`: the chunks' per-view sums, already reduced (sum_views).
+std::vector<double> light_statistics(const SampleSet& s, const Tables& t, const ProductMixture& mix,
+                                     std::size_t l, const std::vector<ChunkStats>& chunks,
+                                     const std::vector<double>& qv) {
+  const std::size_t st = t.stride;
+  ChunkStats sum(0, st);
+  sum.qv = qv;
+  for (const ChunkStats& c : chunks) {
+    for (std::size_t k = 0; k < st; ++k) sum.q[k] += c.q[k];
+    for (std::size_t k = 0; k < sum.xy.size(); ++k) sum.xy[k] += c.xy[k];
     for (std::size_t k = 0; k < sum.c1.size(); ++k) sum.c1[k] += c.c1[k];
     for (std::size_t k = 0; k < sum.c2.size(); ++k) sum.c2[k] += c.c2[k];
+    sum.ll += c.ll;
   }
-  detail::SufficientStatistics ss(t.m);
+  std::vector<double> out(1 + t.m * kPerComponent, 0.0);
+  out[0] = sum.ll;
   const detail::Periods periods = tile_periods(s);
   for (std::size_t k = 0; k < t.m; ++k) {
     const std::size_t m = t.order[k];  // table column k holds component m
+    double* o = &out[1 + m * kPerComponent];
+    double* s1 = o + 1;
+    double* s2 = o + 1 + kVariables;
     const auto& mu = mix.mean[m];
     auto add = [&](int n, double q, double x) {
       const double d = detail::wrapped_difference(x - mu[n], periods[std::size_t(n)]);
-      ss.s1[m][n] += q * d;
-      ss.s2[m][n] += q * d * d;
+      s1[n] += q * d;
+      s2[n] += q * d * d;
     };
-    for (std::size_t p = 0; p < pixels; ++p) {
-      const double q = g.qp[p * st + k];
-      ss.s0[m] += q;
-      add(0, q, double(p % std::size_t(s.width)));
-      add(1, q, double(p / std::size_t(s.width)));
-    }
-    for (std::size_t l = 0; l < ni; ++l) {
-      add(2, sum.ql[l * st + k], s.light_ab[l][0]);
-      add(3, sum.ql[l * st + k], s.light_ab[l][1]);
-    }
-    for (std::size_t v = 0; v < nv; ++v) {
+    o[0] = sum.q[k];
+    s1[0] = sum.xy[k];
+    s2[0] = sum.xy[st + k];
+    s1[1] = sum.xy[2 * st + k];
+    s2[1] = sum.xy[3 * st + k];
+    add(2, sum.q[k], s.light_ab[l][0]);
+    add(3, sum.q[k], s.light_ab[l][1]);
+    for (std::size_t v = 0; v < s.views; ++v) {
       add(4, sum.qv[v * st + k], s.view_ab[v][0]);
       add(5, sum.qv[v * st + k], s.view_ab[v][1]);
     }
     for (int c = 0; c < 3; ++c) {
-      ss.s1[m][6 + c] = sum.c1[c * st + k];
-      ss.s2[m][6 + c] = sum.c2[c * st + k];
+      s1[6 + c] = sum.c1[std::size_t(c) * st + k];
+      s2[6 + c] = sum.c2[std::size_t(c) * st + k];
     }
   }
-  return ss;
+  return out;
+}
+
+// The chunks' per-view sums reduced in chunk order into qv, shared among the threads of the
+// E pass (an orphaned worksharing loop: called by every thread of its parallel region).
+void sum_views(const std::vector<ChunkStats>& chunks, std::vector<double>& qv) {
+  const auto n = std::ptrdiff_t(qv.size());
+#pragma omp for schedule(static)
+  for (std::ptrdiff_t k = 0; k < n; ++k) {
+    double a = 0.0;
+    for (const ChunkStats& c : chunks) a += c.qv[std::size_t(k)];
+    qv[std::size_t(k)] = a;
+  }
+}
+
+// One E pass, Eq. (2)-(4), over the lights this process holds, light by light, each in
+// kChunks chunks of pixels: returns each light's statistics (light_statistics; with `stats`
+// false, L's terms alone). Accumulation: float within a (pixel, light) block of nv samples
+// (and per view over kViewFlush pixels), double beyond, in a fixed order per chunk and light,
+// so the result depends on neither the threads nor the processes.
+std::vector<std::vector<double>> e_pass(const SampleSet& s, const Tables& t,
+                                        const ProductMixture& mix,
+                                        const std::vector<std::uint8_t>& order, int threads,
+                                        bool stats) {
+  std::vector<std::vector<double>> lights;
+  std::vector<ChunkStats> chunks(kChunks, ChunkStats(stats ? s.views : 0, stats ? t.stride : 0));
+  std::vector<double> qv(stats ? s.views * t.stride : 0);
+  std::exception_ptr failure;
+  std::atomic<bool> failed{false};
+#pragma omp parallel num_threads(threads)
+  {
+    const detail::FlushDenormals flush;
+    Workspace w(t.stride, s.views, kGroup);
+    for (std::size_t l = s.first_light; l < s.light_end(); ++l) {
+#pragma omp for schedule(dynamic, 1)
+      for (std::size_t c = 0; c < kChunks; ++c) {
+        if (failed.load()) continue;
+        try {
+          chunks[c].clear();
+          chunk_pass(s, t, order, l, c, w, stats, chunks[c]);
+        } catch (...) {
+#pragma omp critical(btfgmm_em_failure)
+          if (!failure) failure = std::current_exception();
+          failed = true;
+        }
+      }
+      if (stats) sum_views(chunks, qv);
+#pragma omp single
+      {
+        if (failed.load()) {
+        } else if (stats) {
+          lights.push_back(light_statistics(s, t, mix, l, chunks, qv));
+        } else {
+          double ll = 0.0;
+          for (const ChunkStats& c : chunks) ll += c.ll;
+          lights.push_back({ll});
+        }
+      }
+    }
+  }
+  if (failure) std::rethrow_exception(failure);
+  return lights;
+}
+
+// The statistics of every light, from every process, added in light order: L of Eq. (3) and
+// the sufficient statistics of the M-step (mixture_internal.hpp).
+struct Combined {
+  double log_likelihood = 0.0;
+  detail::SufficientStatistics ss;
+  explicit Combined(std::size_t m) : ss(m) {}
+};
+
+Combined combine(const SampleSet& s, std::size_t m_count, bool stats,
+                 const std::vector<std::vector<double>>& mine) {
+  std::vector<double> flat;
+  for (const auto& l : mine) flat.insert(flat.end(), l.begin(), l.end());
+  SingleProcess alone;
+  Communicator& processes = s.processes ? *s.processes : alone;
+  const auto all = all_gather_values<double>(processes, std::span<const double>(flat));
+  const std::size_t per = stats ? 1 + m_count * kPerComponent : 1;
+  Combined out(m_count);
+  for (const std::vector<double>& r : all) {  // processes in order hold the lights in order
+    for (std::size_t at = 0; at + per <= r.size(); at += per) {
+      out.log_likelihood += r[at];
+      if (!stats) continue;
+      for (std::size_t m = 0; m < m_count; ++m) {
+        const double* o = &r[at + 1 + m * kPerComponent];
+        out.ss.s0[m] += o[0];
+        for (std::size_t n = 0; n < std::size_t(kVariables); ++n) {
+          out.ss.s1[m][n] += o[1 + n];
+          out.ss.s2[m][n] += o[1 + kVariables + n];
+        }
+      }
+    }
+  }
+  return out;
 }
 
 int resolve_threads(int threads) {
   return threads > 0 ? threads : omp_get_max_threads();
+}
+
+// Whether the fit was asked to stop (config.stop): in any process of a distributed set, so
+// that all stop after the same iteration.
+bool asked_to_stop(const SampleSet& s, const EmConfig& config) {
+  const std::uint8_t mine = config.stop && config.stop->load() ? 1 : 0;
+  if (!s.processes) return mine != 0;
+  for (const auto& r : all_gather_values<std::uint8_t>(*s.processes, std::span(&mine, 1)))
+    if (!r.empty() && r[0] != 0) return true;
+  return false;
+}
+
+// L of Eq. (3) of `mix` over every process's samples.
+double log_likelihood_of(const SampleSet& s, const ProductMixture& mix,
+                         const std::vector<std::uint8_t>& order, int threads) {
+  const Tables t = make_tables(s, mix);
+  return combine(s, mix.size(), false, e_pass(s, t, mix, order, threads, false)).log_likelihood /
+         double(s.size());
 }
 
 }  // namespace
@@ -375,23 +516,24 @@ EmResult fit_em(const SampleSet& s, ProductMixture& mix, const EmConfig& config,
   }
   for (int it = result.iterations + 1; it <= config.max_iterations && !result.converged; ++it) {
     const Tables t = make_tables(s, mix);  // Eq. (2) in parts
-    GridStatistics g(s, t.stride);
-    const double ll = e_pass(s, t, order, threads, &g);  // Eq. (3)-(4)
+    // Eq. (3)-(4) over this process's lights; every process's statistics added in light
+    // order.
+    const Combined c = combine(s, mix.size(), true, e_pass(s, t, mix, order, threads, true));
     // M-step, Eq. (5)-(7).
-    result.dropped +=
-        detail::m_step(mix, sufficient_statistics(s, t, mix, g), double(s.size()),
-                       config.variance_floor, config.min_component_samples, tile_periods(s));
+    result.dropped += detail::m_step(mix, c.ss, double(s.size()), config.variance_floor,
+                                     config.min_component_samples, tile_periods(s));
     // Stop test: the gain of L (record_iteration), or a stop from outside (the state so far,
     // to resume from).
-    detail::record_iteration(result, ll, it, config, mix.size(), t0, progress);
+    detail::record_iteration(result, c.log_likelihood / double(s.size()), it, config, mix.size(),
+                             t0, progress);
     if (after_iteration) after_iteration(mix, result);
-    if (config.stop && config.stop->load() && it < config.max_iterations && !result.converged) {
+    if (asked_to_stop(s, config) && it < config.max_iterations && !result.converged) {
       result.interrupted = true;
       return result;
     }
   }
   result.final_log_likelihood = config.final_log_likelihood
-                                    ? e_pass(s, make_tables(s, mix), order, threads, nullptr)
+                                    ? log_likelihood_of(s, mix, order, threads)
                                     : std::numeric_limits<double>::quiet_NaN();
   return result;
 }
@@ -400,7 +542,7 @@ double mean_log_likelihood(const SampleSet& s, const ProductMixture& mix, int th
   EmConfig c;
   c.threads = threads;
   detail::check_em_input(s.size(), mix, c);
-  return e_pass(s, make_tables(s, mix), view_order(s), resolve_threads(threads), nullptr);
+  return log_likelihood_of(s, mix, view_order(s), resolve_threads(threads));
 }
 
 }  // namespace btfgmm

@@ -50,6 +50,9 @@ struct Tables {
   std::size_t padded_chunks = 0;
   std::vector<float> v_max;                         // nv x padded_chunks
   std::array<std::vector<float>, 3> lo, hi, h_max;  // padded_chunks each
+  // For the spatial sums: the minimum-image distance of each column x and row y to each
+  // component's mean x and y (W x stride, H x stride).
+  std::vector<double> dx, dy;
 };
 
 // Per-thread work space of the E pass.
@@ -60,6 +63,7 @@ struct Workspace {
   std::vector<float> sl_max, ub;         // its chunk bound: per block, per group
   std::vector<std::uint32_t> candidates;
   std::vector<std::uint32_t> view_list;  // the block's views in processing order
+  std::vector<float> residual;           // the block's residual colours, nv x 3
   explicit Workspace(std::size_t stride, std::size_t views, int group)
       : sl(stride),
         t(std::size_t(group) * stride),
@@ -73,7 +77,8 @@ struct Workspace {
         sl_max((stride / kLanes + kLanes - 1) / kLanes * kLanes, -INFINITY),
         ub(5 * sl_max.size()),
         candidates(stride / kLanes),
-        view_list(views) {}
+        view_list(views),
+        residual(views * 3) {}
 };
 
 // ---- group_pass: the compiler's vectors ------------------------------------------------------
@@ -186,18 +191,18 @@ template <int G>
   }
 }
 
-// G samples of one (pixel, light) block: the views views[0 .. G - 1]. Eq. (2)-(4) for each
-// sample, and with `stats` the fold. Returns the sum of the G samples' terms of L, Eq. (3).
+// G samples of one (pixel, light) block: the views views[0 .. G - 1], their residual colours
+// in w.residual. Eq. (2)-(4) for each sample, and with `stats` the fold. Returns the sum of
+// the G samples' terms of L, Eq. (3).
 template <int G>
-[[gnu::always_inline]] inline double group_pass(const Tables& t, const SampleSet& s, std::size_t p,
-                                                std::size_t l, const std::uint32_t* views,
+[[gnu::always_inline]] inline double group_pass(const Tables& t, const std::uint32_t* views,
                                                 Workspace& w, bool stats) {
   const std::size_t st = t.stride, chunks = st / kLanes;
   float r[G][3];
   const float* vrow[G];
   float* __restrict tt[G];
   for (int g = 0; g < G; ++g) {
-    const float* rr = &s.residual[s.index(p, l, views[g]) * 3];
+    const float* rr = &w.residual[std::size_t(views[g]) * 3];
     r[g][0] = rr[0];
     r[g][1] = rr[1];
     r[g][2] = rr[2];
@@ -469,14 +474,13 @@ inline double group_pass_avx512(std::size_t st, const float* sl, const float* mu
   return cb;
 }
 
-// The views of one (pixel, light) block by group_pass_avx512: groups of four views, then the
-// remaining views one at a time. Adds the samples' terms of L to ll; returns the number of
-// views done (all).
-[[gnu::always_inline]] inline std::size_t block_pass_avx512(const Tables& t, const SampleSet& s,
-                                                            std::size_t p, std::size_t l,
+// The nv views of one (pixel, light) block (their residual colours in w.residual) by
+// group_pass_avx512: groups of four views, then the remaining views one at a time. Adds the
+// samples' terms of L to ll; returns the number of views done (all).
+[[gnu::always_inline]] inline std::size_t block_pass_avx512(const Tables& t, std::size_t nv,
                                                             const std::uint32_t* views,
                                                             Workspace& w, bool stats, double& ll) {
-  const std::size_t st = t.stride, nv = s.views;
+  const std::size_t st = t.stride;
   ChunkBound cb = block_chunk_bound(t, w);
   std::size_t v = 0;
   auto group = [&](auto size) {
@@ -487,7 +491,7 @@ inline double group_pass_avx512(std::size_t st, const float* sl, const float* mu
     for (int g = 0; g < G; ++g) {
       const std::size_t view = views[v + std::size_t(g)];
       vrow[g] = &t.v[view * st];
-      const float* rr = &s.residual[s.index(p, l, view) * 3];
+      const float* rr = &w.residual[view * 3];
       for (int k = 0; k < 3; ++k) r[g][k] = rr[k];
       qv[g] = &w.qv[view * st];
       cb.v_max[g] = &t.v_max[view * t.padded_chunks];

@@ -26,15 +26,15 @@ namespace fs = std::filesystem;
 
 // The model of a finished fit: the tile's directions and extent, the samples' scaling and
 // mean BRDF, the mixture, and how it was fitted.
-BtfModel model_of(const Btf& btf, const SampleSet& samples, const FitConfig& config,
+BtfModel model_of(const FitTile& tile, const SampleSet& samples, const FitConfig& config,
                   ProductMixture mix, const EmResult& em) {
   BtfModel m;
-  m.lights = btf.lights();
-  m.views = btf.views();
-  m.width = btf.width();
-  m.height = btf.height();
-  m.origin = btf.origin();
-  m.format = btf.format();
+  m.lights = tile.lights;
+  m.views = tile.views;
+  m.width = tile.origin.width;
+  m.height = tile.origin.height;
+  m.origin = tile.origin;
+  m.format = tile.format;
   m.scaling = samples.scaling;
   m.mean_brdf = samples.mean_brdf;
   m.mixture = std::move(mix);
@@ -54,12 +54,29 @@ BtfModel model_of(const Btf& btf, const SampleSet& samples, const FitConfig& con
 
 // ---- The fit job -------------------------------------------------------------------------
 
-// The request's tile, and where it was read from.
-Btf load_tile(const FitRequest& r, DataSource& source) {
+// The frame of a tile in memory.
+FitTile tile_of(const Btf& btf) {
+  return {btf.lights(), btf.views(), btf.origin(), btf.format()};
+}
+
+// The request's tile as a sample set (read_sample_set), its frame, and the data's
+// fingerprint (where it was read from, the tile's content hash).
+struct LoadedTile {
+  SampleSet samples;
+  FitTile tile;
+  DataFingerprint data;
+};
+
+LoadedTile load_tile(const FitRequest& r) {
   std::shared_ptr<const BtfSource> src = r.source;
   if (!src) src = std::make_shared<const BtfSource>(BtfSource::open(r.input));
-  source = {r.input, src->info().width, src->info().height};
-  return src->load(r.tile);
+  const BtfInfo& info = src->info();
+  LoadedTile t;
+  t.data.source = {r.input, info.width, info.height};
+  t.samples = read_sample_set(*src, r.tile, &t.data.content_hash, r.processes);
+  const Tile origin = r.tile.empty() ? Tile{0, 0, info.width, info.height} : r.tile;
+  t.tile = {info.lights, info.views, origin, info.format};
+  return t;
 }
 
 // The settings of a mixture's fit as its provenance records them.
@@ -72,16 +89,17 @@ std::vector<std::pair<std::string, std::string>> settings_record(const FitReques
           {"objective", std::string(objective_name(r.config.objective))},
           {"seed", fmt::to_string(r.config.seed)},
           {"precision", std::string(precision_name(r.precision))},
-          {"threads", fmt::to_string(threads)}};
+          {"threads", fmt::to_string(threads)},
+          {"processes", fmt::to_string(r.processes ? r.processes->size() : 1)}};
 }
 
 // What a checkpoint of this request holds besides the state: the fit's inputs and settings,
 // the tile as loaded and the data's fingerprint.
-FitCheckpoint checkpoint_of(const FitRequest& r, const Btf& btf, std::uint64_t fingerprint) {
+FitCheckpoint checkpoint_of(const FitRequest& r, const Tile& tile, std::uint64_t fingerprint) {
   FitCheckpoint k;
   k.input = r.input;
   k.output = r.output;
-  k.tile = btf.origin();
+  k.tile = tile;
   k.components = r.config.components;
   k.seed = r.config.seed;
   k.max_iterations = r.config.em.max_iterations;
@@ -129,9 +147,14 @@ void check_resume(const FitResume& resume, const FitCheckpoint& now) {
                               what, resume.path, s.name, s.was, s.now));
 }
 
+// Whether this process writes the fit's files: process 0 of a fit over several.
+bool writes_files(const FitRequest& r) {
+  return !r.processes || r.processes->rank() == 0;
+}
+
 // Saves the state to request.checkpoint every checkpoint_every iterations (none without one).
 EmStateCallback periodic_checkpoints(const FitRequest& r, const FitCheckpoint& job) {
-  if (r.checkpoint.empty()) return {};
+  if (r.checkpoint.empty() || !writes_files(r)) return {};
   return [&r, &job](const ProductMixture& mix, const EmResult& result) {
     if (result.iterations % std::max(1, r.checkpoint_every) != 0) return;
     FitCheckpoint k = job;
@@ -150,7 +173,7 @@ FitOutcome save_interrupted(const FitRequest& r, FitCheckpoint k, FitState state
                    : !r.output.empty()   ? r.output + ".ckpt"
                                          : std::string();
   k.state = std::move(state);
-  if (!out.checkpoint.empty()) save_checkpoint(k, out.checkpoint);
+  if (!out.checkpoint.empty() && writes_files(r)) save_checkpoint(k, out.checkpoint);
   return out;
 }
 
@@ -167,6 +190,7 @@ void record_provenance(const FitRequest& r, const FitCheckpoint& job, DataFinger
 
 // Finished: the model file, then the checkpoint goes (the model holds the fit's result).
 void save_finished(const FitRequest& r, FitOutcome& out) {
+  if (!writes_files(r)) return;
   save_model(out.model, r.output);
   if (!r.checkpoint.empty()) {
     std::error_code ec;
@@ -177,11 +201,13 @@ void save_finished(const FitRequest& r, FitOutcome& out) {
 
 }  // namespace
 
-BtfModel fit_model(const Btf& btf, const FitConfig& config, const EmCallback& progress,
-                   const FitState* resume, const EmStateCallback& after_iteration,
-                   FitState* state) {
-  const auto t0 = Clock::now();
-  const SampleSet samples = make_sample_set(btf);
+namespace {
+
+// fit_model on a sample set of `tile`.
+BtfModel fit_samples(const SampleSet& samples, const FitTile& tile, const FitConfig& config,
+                     const EmCallback& progress, const FitState* resume,
+                     const EmStateCallback& after_iteration, FitState* state,
+                     Clock::time_point t0) {
   ProductMixture mix =
       resume ? resume->mixture : initial_mixture(samples, config.components, config.seed);
   const EmResult em = fit_em(samples, mix, config.em, progress, resume ? &resume->result : nullptr,
@@ -194,10 +220,20 @@ BtfModel fit_model(const Btf& btf, const FitConfig& config, const EmCallback& pr
     refine_for_prediction(samples, mix, config.em.threads);
     final_l = mean_log_likelihood(samples, mix, config.em.threads);
   }
-  BtfModel m = model_of(btf, samples, config, std::move(mix), em);
+  BtfModel m = model_of(tile, samples, config, std::move(mix), em);
   m.settings.log_likelihood = final_l;
   m.settings.seconds = seconds_since(t0);
   return m;
+}
+
+}  // namespace
+
+BtfModel fit_model(const Btf& btf, const FitConfig& config, const EmCallback& progress,
+                   const FitState* resume, const EmStateCallback& after_iteration,
+                   FitState* state) {
+  const auto t0 = Clock::now();
+  return fit_samples(make_sample_set(btf), tile_of(btf), config, progress, resume, after_iteration,
+                     state, t0);
 }
 
 FitRequest resume_request(const fs::path& path) {
@@ -249,7 +285,7 @@ FitRequest continue_request(const fs::path& path, const std::string& input, int 
   r.config.objective = recorded_objective(p);
   r.precision = m.precision;
   r.output = output;
-  FitCheckpoint k = checkpoint_of(r, Btf(), 0);
+  FitCheckpoint k = checkpoint_of(r, Tile{}, 0);
   k.input = p.data.source.name;
   k.tile = m.origin;
   k.data_fingerprint = data_fingerprint(m.lights, m.views, m.width, m.height, p.data.content_hash);
@@ -268,23 +304,28 @@ FitRequest continue_request(const fs::path& path, const std::string& input, int 
 }
 
 FitOutcome fit_in_memory(const FitRequest& request, const FitObserver& observer) {
-  DataSource source;
-  const Btf btf = load_tile(request, source);
-  const DataFingerprint data = fingerprint_of(btf, std::move(source));
-  FitCheckpoint job = checkpoint_of(
-      request, btf,
-      data_fingerprint(btf.lights(), btf.views(), btf.width(), btf.height(), data.content_hash));
+  if (request.processes && request.processes->size() > 1 &&
+      request.config.objective == FitObjective::kPrediction)
+    throw Error(Error::Kind::kArgument,
+                "--objective prediction (the default) is not yet split over MPI processes; give "
+                "--objective likelihood (the paper's EM) to fit over several, or run one process");
+  const LoadedTile loaded = load_tile(request);
+  const auto t0 = Clock::now();
+  const FitTile& tile = loaded.tile;
+  FitCheckpoint job = checkpoint_of(request, tile.origin,
+                                    data_fingerprint(tile.lights, tile.views, tile.origin.width,
+                                                     tile.origin.height, loaded.data.content_hash));
   if (request.resume) {
     check_resume(*request.resume, job);
     job.runs = request.resume->checkpoint.runs + 1;
   }
-  if (observer.started) observer.started(btf);
+  if (observer.started) observer.started(tile);
   FitState state;
-  BtfModel model = fit_model(btf, request.config, observer.iteration,
-                             request.resume ? &request.resume->checkpoint.state : nullptr,
-                             periodic_checkpoints(request, job), &state);
+  BtfModel model = fit_samples(loaded.samples, tile, request.config, observer.iteration,
+                               request.resume ? &request.resume->checkpoint.state : nullptr,
+                               periodic_checkpoints(request, job), &state, t0);
   if (state.result.interrupted) return save_interrupted(request, job, std::move(state));
-  record_provenance(request, job, data, model);
+  record_provenance(request, job, loaded.data, model);
   model.precision = request.precision;
   FitOutcome out;
   out.model = std::move(model);

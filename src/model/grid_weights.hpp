@@ -72,7 +72,7 @@ class GridWeights {
 #pragma omp for schedule(dynamic, 1)
     for (std::ptrdiff_t pp = 0; pp < pixels; ++pp) {
       const std::size_t p = std::size_t(pp);
-      for (std::size_t l = 0; l < s_.lights; ++l) {
+      for (std::size_t l = s_.first_light; l < s_.light_end(); ++l) {  // the lights held
         const double* a = &pixel_[p * m_];
         const double* b = &light_[l * m_];
         for (std::size_t k = 0; k < m_; ++k) pl[k] = a[k] + b[k];
@@ -83,7 +83,7 @@ class GridWeights {
           w.light = l;
           w.view = v;
           w.index = s_.index(p, l, v);
-          for (int c = 0; c < 3; ++c) w.residual[c] = s_.residual[w.index * 3 + std::size_t(c)];
+          for (int c = 0; c < 3; ++c) w.residual[c] = s_.residual_of(p, l, v, c);
           visit(w);
         }
       }

@@ -84,15 +84,17 @@ void get_iterations(detail::ByteReader& r, FitLog& log) {
 
 }  // namespace
 
-std::uint64_t tile_content_hash(const Btf& tile) {
-  const std::span<const float> v = tile.data();
+std::uint64_t content_hash_add(std::uint64_t h, std::span<const float> v) {
   const auto* p = reinterpret_cast<const std::uint8_t*>(v.data());
-  std::uint64_t h = 0xcbf29ce484222325ull;  // FNV-1a offset basis and prime
   for (std::size_t i = 0, n = v.size_bytes(); i < n; ++i) {
     h ^= p[i];
-    h *= 0x100000001b3ull;
+    h *= 0x100000001b3ull;  // the FNV-1a prime
   }
   return h;
+}
+
+std::uint64_t tile_content_hash(const Btf& tile) {
+  return content_hash_add(kContentHashBasis, tile.data());
 }
 
 DataFingerprint fingerprint_of(const Btf& tile, DataSource source) {

@@ -14,7 +14,9 @@
 
 #include <cstdint>
 #include <filesystem>
+#include <functional>
 #include <optional>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -59,6 +61,14 @@ class BtfSource {
   // in memory (one decoded image per thread at a time). Throws Error(kArgument) if the tile
   // is not inside the image, Error(kFormat/kIo) if an image cannot be read.
   Btf load(const Tile& tile = {}) const;
+
+  // Read a tile of the images first .. last - 1 (light-major indices, as Btf::image_index)
+  // without holding them: take(i, rgb) receives image i's tile (width * height * 3 floats,
+  // row-major, RGB), from several threads at once, one decoded image per thread at a time.
+  // `tile` must be inside the image (load checks it). Throws as load.
+  using TileSink = std::function<void(std::size_t image, std::span<const float> rgb)>;
+  void read_tiles(const Tile& tile, std::size_t first, std::size_t last,
+                  const TileSink& take) const;
 
  private:
   BtfInfo info_;

@@ -29,7 +29,8 @@ struct FitOptions {
   std::optional<double> epsilon;  // the mixture's EM only (default 0: all iterations)
   std::uint64_t seed = 1;
   int threads = 0;        // 0: OpenMP's default; the model does not depend on it
-  std::string precision;  // gm: "compact" (default; "q8" too), "f32" or "f16"; others: "q8" (default), "f32", "f16"
+  std::string precision;  // gm: "compact" (default; "q8" too), "f32" or "f16"; others: "q8"
+                          // (default), "f32", "f16"
   std::string objective;  // gm: "prediction" (default) or "likelihood" (the paper's EM alone)
 };
 
@@ -47,7 +48,7 @@ MethodSettings method_settings(const FitOptions& o, const MethodInfo& method);
 
 // What a fit tells as it goes (the library prints nothing); any member may be empty.
 struct FitProgress {
-  std::function<void(const Btf& tile)> started;        // the tile is in memory; the fit starts
+  std::function<void(const FitTile& tile)> started;    // the tile is read; the fit starts
   std::function<void(const EmProgress& p)> iteration;  // the mixture: after each EM iteration
   std::function<void(double fraction, std::string_view stage)> progress;  // the other methods
   const std::atomic<bool>* stop = nullptr;  // set: the fit stops (Error(kArgument), or null)

@@ -12,7 +12,8 @@ namespace btfgmm {
 // EM, Eq. (3)-(7), on the sample grid (docs/ALGORITHM.md, "The grid path"): per iteration the
 // spatial and angular parts of every component's log density are tabulated once, samples are
 // processed in blocks, responsibilities folded into sufficient statistics at once (no N x M
-// matrix). Statistics are accumulated per fixed chunk of pixels and reduced in a fixed order, so
+// matrix). Statistics are accumulated per light in fixed chunks of pixels and reduced in a fixed
+// order (chunks, then lights, over every process of a distributed set, docs/SCALING.md), so
 // the result does not depend on the number of threads.
 //
 // To resume an interrupted fit, pass the mixture and the EmResult it returned (or that a

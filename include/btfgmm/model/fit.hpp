@@ -12,6 +12,7 @@
 #include <string>
 
 #include "btfgmm/core/btf.hpp"
+#include "btfgmm/core/communicator.hpp"
 #include "btfgmm/io/dataset.hpp"
 #include "btfgmm/model/checkpoint.hpp"
 #include "btfgmm/model/em.hpp"
@@ -66,6 +67,10 @@ struct FitRequest {
   // written.
   std::string checkpoint;
   int checkpoint_every = 1;
+  // The processes of a fit over several (an MPI job; core/communicator.hpp): each reads and
+  // fits its share of the lights, process 0 writes the checkpoints and the model, and the
+  // model is that of a fit in one process, bit for bit. Null: this process alone.
+  std::shared_ptr<Communicator> processes;
   // Continue this fit (see resume_request, continue_request); the tile, M, seed and
   // precision above must be the checkpoint's, the data the same, and the iterations at least
   // those already run (more go on to that many; epsilon may change).
@@ -86,10 +91,20 @@ FitRequest resume_request(const std::filesystem::path& path);
 FitRequest continue_request(const std::filesystem::path& path, const std::string& input,
                             int iterations, const std::string& output);
 
+// The tile a fit holds, without its values.
+struct FitTile {
+  DirectionSet lights, views;
+  Tile origin;  // where it was cut from its images (x, y, width, height)
+  SampleFormat format = SampleFormat::kLdr8;
+  std::size_t samples() const {
+    return lights.size() * views.size() * std::size_t(origin.width) * std::size_t(origin.height);
+  }
+};
+
 // What run_fit tells as it goes (the library prints nothing).
 struct FitObserver {
   // The tile is in memory (for a resume: the very data of the checkpoint); EM starts next.
-  std::function<void(const Btf& tile)> started;
+  std::function<void(const FitTile& tile)> started;
   EmCallback iteration;  // after every EM iteration, as fit_em's progress
 };
 
@@ -111,6 +126,8 @@ struct FitOutcome {
 // output, the state is saved nowhere and the outcome's checkpoint is empty).
 FitOutcome fit_in_memory(const FitRequest& request, const FitObserver& observer = {});
 
+// With request.processes, every process calls run_fit with the same request; only process 0
+// writes files (its outcome names them; the others' model is the same, file_bytes 0).
 // Loads the request's tile, checks a resume against it (Error(kArgument) when the data or
 // the settings are not the checkpoint's or the model's), fits (fit_model) with checkpoints as
 // requested, and writes the model, or on an interruption the checkpoint. Throws Error as the

@@ -5,6 +5,7 @@
 #pragma once
 
 #include <cstdint>
+#include <span>
 #include <string>
 #include <utility>
 #include <vector>
@@ -53,6 +54,9 @@ struct Provenance {
 // little-endian, in Btf order (light-major images, rows, RGB). Equal tiles of any two reads
 // of the same images hash equal; a changed value changes it.
 std::uint64_t tile_content_hash(const Btf& tile);
+// The same hash in pieces: from kContentHashBasis, each run of values in that order.
+constexpr std::uint64_t kContentHashBasis = 0xcbf29ce484222325ull;  // FNV-1a offset basis
+std::uint64_t content_hash_add(std::uint64_t hash, std::span<const float> values);
 // The fingerprint of `tile`, read from `source`.
 DataFingerprint fingerprint_of(const Btf& tile, DataSource source);
 // 16 hexadecimal digits.
