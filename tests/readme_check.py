@@ -13,6 +13,7 @@ whose checkpoint a later command resumes is interrupted with SIGINT, as the READ
 user's Ctrl-C does, once its first checkpoint is written. Python (a `python3 -c` line, a
 ```python block) runs with the built module on PYTHONPATH, where it was built.
 """
+import glob
 import os
 import re
 import shlex
@@ -52,7 +53,7 @@ def command_lines(readme_text):
 
 def run_python(code, work, python_path):
     """Runs Python code of the README with the built module; False where it was not built."""
-    if not os.path.isdir(python_path):
+    if not glob.glob(os.path.join(python_path, "btfgmm*.so")):
         return False
     code = re.sub(r"components=(\d+)",
                   lambda m: f"components={min(int(m.group(1)), MAX_COMPONENTS)}", code)
