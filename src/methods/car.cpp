@@ -10,7 +10,7 @@
 #include <numbers>
 
 #include "core/random.hpp"
-#include "methods/eigen_dense.hpp"
+#include "core/eigen_dense.hpp"
 
 namespace btfgmm::detail {
 namespace {

@@ -7,7 +7,7 @@
 #include <cmath>
 
 #include "methods/car.hpp"
-#include "methods/eigen_dense.hpp"
+#include "core/eigen_dense.hpp"
 #include "methods/gmrf.hpp"
 
 namespace btfgmm::detail {

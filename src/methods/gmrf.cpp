@@ -8,7 +8,7 @@
 #include <complex>
 #include <numbers>
 
-#include "methods/eigen_dense.hpp"
+#include "core/eigen_dense.hpp"
 #include "methods/fft.hpp"
 
 namespace btfgmm::detail {

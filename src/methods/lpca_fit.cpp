@@ -6,7 +6,7 @@
 #include <limits>
 
 #include "core/random.hpp"
-#include "methods/eigen_dense.hpp"
+#include "core/eigen_dense.hpp"
 #include "methods/pca_methods.hpp"
 
 namespace btfgmm::detail {

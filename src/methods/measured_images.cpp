@@ -139,11 +139,7 @@ void repeat_tile(const float* tile, int tw, int th, float* out, int width, int h
 
 Btf MeasuredImages::decode(const DirectionSet& lights, const DirectionSet& views, int width,
                            int height, double /*tolerance*/) const {
-  for (const auto& d : lights) detail::check_direction(d, "light");
-  for (const auto& d : views) detail::check_direction(d, "view");
-  if (width < 1 || height < 1 || width > limits::kMaxImageSide || height > limits::kMaxImageSide)
-    throw Error(Error::Kind::kArgument, fmt::format("decode size {}x{}: give 1..{} pixels a side",
-                                                    width, height, limits::kMaxImageSide));
+  detail::check_decode_request(lights, views, width, height);
   Btf out(lights, views, width, height, frame_.format);
   out.set_origin(frame_.origin);
   const std::size_t n = frame_.pixels() * 3;

@@ -7,7 +7,7 @@
 #include <cmath>
 
 #include "core/random.hpp"
-#include "methods/eigen_dense.hpp"
+#include "core/eigen_dense.hpp"
 
 namespace btfgmm::detail {
 namespace {

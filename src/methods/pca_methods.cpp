@@ -8,7 +8,7 @@
 #include <cmath>
 
 #include "btfgmm/core/error.hpp"
-#include "methods/eigen_dense.hpp"
+#include "core/eigen_dense.hpp"
 #include "methods/factors.hpp"
 
 namespace btfgmm::detail {

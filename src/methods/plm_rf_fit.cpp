@@ -7,7 +7,7 @@
 #include <algorithm>
 #include <cmath>
 #include <vector>
-#include "methods/eigen_dense.hpp"
+#include "core/eigen_dense.hpp"
 
 #include "btfgmm/core/error.hpp"
 #include "btfgmm/methods/plm_rf.hpp"

@@ -8,7 +8,7 @@
 #include <array>
 #include <cmath>
 #include <vector>
-#include "methods/eigen_dense.hpp"
+#include "core/eigen_dense.hpp"
 
 #include "btfgmm/methods/plm_rf.hpp"
 

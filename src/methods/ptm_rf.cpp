@@ -8,7 +8,7 @@
 #include <algorithm>
 #include <cassert>
 #include <cmath>
-#include "methods/eigen_dense.hpp"
+#include "core/eigen_dense.hpp"
 
 #include "btfgmm/core/error.hpp"
 #include "methods/factors.hpp"

@@ -9,7 +9,7 @@
 
 #include "btfgmm/core/error.hpp"
 #include "btfgmm/io/image.hpp"
-#include "methods/eigen_dense.hpp"
+#include "core/eigen_dense.hpp"
 #include "methods/fft.hpp"
 
 namespace btfgmm {

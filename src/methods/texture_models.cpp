@@ -144,11 +144,7 @@ void TextureModel::predict(std::span<const Query> queries, std::span<float> rgb)
 
 Btf TextureModel::decode(const DirectionSet& lights, const DirectionSet& views, int width,
                          int height, double /*tolerance*/) const {
-  for (const auto& d : lights) detail::check_direction(d, "light");
-  for (const auto& d : views) detail::check_direction(d, "view");
-  if (width < 1 || height < 1 || width > limits::kMaxImageSide || height > limits::kMaxImageSide)
-    throw Error(Error::Kind::kArgument, fmt::format("decode size {}x{}: give 1..{} pixels a side",
-                                                    width, height, limits::kMaxImageSide));
+  detail::check_decode_request(lights, views, width, height);
   Btf out(lights, views, width, height, frame_.format);
   out.set_origin(frame_.origin);
   std::vector<const std::vector<float>*> synth(subspaces_.size(), nullptr);

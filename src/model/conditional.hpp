@@ -26,6 +26,7 @@
 #include "btfgmm/core/directions.hpp"
 #include "btfgmm/core/error.hpp"
 #include "btfgmm/core/interpolation.hpp"
+#include "btfgmm/core/limits.hpp"
 #include "btfgmm/model/mixture.hpp"
 #include "btfgmm/model/model.hpp"
 #include "model/mixture_internal.hpp"
@@ -42,6 +43,16 @@ inline void check_direction(const Direction& d, const char* what) {
                 fmt::format("{} direction theta={} phi={} is not on the upper hemisphere; give "
                             "theta in [0, 90] degrees and a finite phi",
                             what, d.theta_deg, d.phi_deg));
+}
+
+// Throws Error(kArgument) for a decode request off the hemisphere or of a size no image takes.
+inline void check_decode_request(const DirectionSet& lights, const DirectionSet& views, int width,
+                                 int height) {
+  for (const auto& d : lights) check_direction(d, "light");
+  for (const auto& d : views) check_direction(d, "view");
+  if (width < 1 || height < 1 || width > limits::kMaxImageSide || height > limits::kMaxImageSide)
+    throw Error(Error::Kind::kArgument, fmt::format("decode size {}x{}: give 1..{} pixels a side",
+                                                    width, height, limits::kMaxImageSide));
 }
 
 // A pixel coordinate modulo the tile's side (the tile repeats); one already inside is

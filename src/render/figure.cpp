@@ -106,17 +106,18 @@ void draw_panels(Image& img, const Rendering& data, const Rendering& model, int 
 }
 
 // A horizontal grey ramp from black (0 levels of difference) to white (255 / scale levels and
-// more), labelled at both ends, at (x, y), `width` wide; returns its height.
-int draw_difference_scale(Image& img, int x, int y, int width, int px, double scale) {
+// more), labelled at both ends, at (x, y), `width` wide, centred in a line of text.
+void draw_difference_scale(Image& img, int x, int y, int width, int px, double scale) {
   const std::array<float, 3> ink{0, 0, 0};
   const int bar = std::max(4, px / 2), left = label_width("0 ", px);
+  const int top = y + (label_line_height(px) - bar) / 2;
   const std::string high = fmt::format(" {:g} levels or more", 255.0 / scale);
   const int ramp = std::max(8, width - left - label_width(high, px));
   draw_label(img, x, y, "0 ", px, ink);
   for (int i = 0; i < ramp; ++i) {
     const float v = 255.0f * float(i) / float(std::max(1, ramp - 1));
     for (int r = 0; r < bar; ++r) {
-      const int yy = y + (label_line_height(px) - bar) / 2 + r;
+      const int yy = top + r;
       if (yy < 0 || yy >= img.height || x + left + i >= img.width) continue;
       float* o =
           &img.rgb[(std::size_t(yy) * std::size_t(img.width) + std::size_t(x + left + i)) * 3];
@@ -124,7 +125,6 @@ int draw_difference_scale(Image& img, int x, int y, int width, int px, double sc
     }
   }
   draw_label(img, x + left + ramp, y, high, px, ink);
-  return label_line_height(px);
 }
 
 }  // namespace

@@ -64,8 +64,8 @@ Chart convergence_chart(std::span<const ModelComparison> models) {
     ChartSeries s;
     s.label = x->name + " (" + x->model->size_text() + ")";
     s.colour = svg::kPalette[c.series.size() % svg::kPaletteSize];
-    s.markers = x->model->provenance().fit.iterations.size() <= 12;
     const auto& its = x->model->provenance().fit.iterations;
+    s.markers = its.size() <= 12;
     for (std::size_t i = 0; i < its.size(); ++i)
       s.points.push_back({double(i + 1), its[i].log_likelihood});
     c.series.push_back(s);

@@ -1,4 +1,4 @@
-// Eigen's dense linear algebra for the methods' sources. GCC 12 reports a false
+// Eigen's dense linear algebra for the library's sources (the methods, the mixture's refit). GCC 12 reports a false
 // -Wmaybe-uninitialized (and, at -O1 under the sanitizers, -Wuninitialized) inside its AVX-512
 // intrinsics as Eigen 3.4 inlines them (the packet transposes of its matrix products, where
 // _mm512_undefined_pd is meant to be undefined); the warnings are silenced for those headers
