@@ -34,10 +34,10 @@ ImageStats image_stats(const float* rgb, std::size_t pixels) {
 
 // Total variation between the two luminance histograms over the data's range.
 double histogram_distance(const std::vector<double>& data, const std::vector<double>& model) {
-  const auto [lo, hi] = std::minmax_element(data.begin(), data.end());
-  const double width = std::max(*hi - *lo, 1e-9) / kBins;
+  const auto range = std::minmax_element(data.begin(), data.end());
+  const double lo = *range.first, width = std::max(*range.second - lo, 1e-9) / kBins;
   std::array<double, kBins> a{}, b{};
-  const auto bin = [&](double v) { return std::clamp(int((v - *lo) / width), 0, kBins - 1); };
+  const auto bin = [&](double v) { return std::clamp(int((v - lo) / width), 0, kBins - 1); };
   for (double v : data) a[std::size_t(bin(v))] += 1.0 / double(data.size());
   for (double v : model) b[std::size_t(bin(v))] += 1.0 / double(model.size());
   double d = 0;
