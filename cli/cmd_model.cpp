@@ -280,7 +280,10 @@ std::optional<IterationLog> open_iteration_log(const FitOptions& o, const btfgmm
 void run_mixture_fit(const FitOptions& options,
                      const std::shared_ptr<btfgmm::Communicator>& processes) {
   FitOptions o = options;
-  o.quiet = o.quiet || (processes && processes->rank() != 0);
+  if (processes && processes->rank() != 0) {
+    o.quiet = true;
+    o.log.clear();  // process 0 writes the iteration log
+  }
   btfgmm::FitRequest r = fit_request(o);
   r.processes = processes;
   const bool resumed = r.resume && !r.resume->finished_model;

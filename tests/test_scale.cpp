@@ -162,9 +162,18 @@ TEST(Scale, MpiJobsOfOneTwoAndThreeProcessesWriteTheModelOfOneProcess) {
   ASSERT_EQ(one.substr(0, 2), "gm");
   for (int np : {1, 2, 3}) {
     const fs::path out = dir / ("np" + std::to_string(np) + ".btfgmm");
-    const test::CliRun r = shell(under_mpirun(np) + fit + out.string() + " --threads 2", dir);
+    const fs::path log = dir / ("np" + std::to_string(np) + ".csv");
+    const test::CliRun r =
+        shell(under_mpirun(np) + fit + out.string() + " --threads 2 --log " + log.string(), dir);
     ASSERT_EQ(r.status, 0) << np << " processes: " << r.err;
     EXPECT_EQ(model_of_file(out), one) << np << " processes";
+    // Process 0 alone writes the iteration log: a header and iterations 1 to 4, once each.
+    std::ifstream in(log);
+    std::string line, iterations;
+    std::getline(in, line);
+    EXPECT_EQ(line.substr(0, 10), "iteration,") << np << " processes";
+    while (std::getline(in, line)) iterations += line.substr(0, line.find(',')) + " ";
+    EXPECT_EQ(iterations, "1 2 3 4 ") << np << " processes";
   }
   // The refit for the prediction runs in one process only, for now: refused by name over two.
   const test::CliRun p = shell(under_mpirun(2) + " fit " + (dir / "btf").string() + " -M 4 -q -o " +
