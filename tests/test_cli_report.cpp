@@ -87,6 +87,8 @@ TEST(ReportCli, ShowsTheModelsOfATileSideBySide) {
       EXPECT_NE(caption.find(fmt::format("<b>{}</b>", "abc"[k])), std::string::npos) << caption;
       EXPECT_NE(caption.find(fmt::format("file {} bytes", cs[k].file_bytes)), std::string::npos)
           << caption;
+      // The mixture's objective, as its provenance records it (the default fit's).
+      EXPECT_EQ(caption.find("objective prediction") != std::string::npos, k == 0) << caption;
       if (k < 2) {
         const double psnr = cs[k].quality.images[rows[row]].psnr_db;
         EXPECT_NE(caption.find(fmt::format("PSNR {:.2f} dB", psnr)), std::string::npos) << caption;

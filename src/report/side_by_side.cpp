@@ -74,6 +74,14 @@ std::vector<float> model_image(const ModelComparison& c, std::size_t l, std::siz
   return {one.image(0, 0), one.image(0, 0) + one.image_floats()};
 }
 
+// The objective a mixture was fitted for (the paper's likelihood or the prediction's error),
+// as its provenance records it: ", objective likelihood"; empty where none is recorded.
+std::string objective_text(const Representation& r) {
+  for (const auto& [k, v] : r.provenance().fit.settings)
+    if (k == "objective") return ", objective " + svg::escape(v);
+  return "";
+}
+
 // The seed a synthesis is made from, as the model states it.
 std::string synthesis_seed(const Representation& r) {
   for (const auto& [k, v] : r.details())
@@ -89,12 +97,13 @@ std::string figure(const std::string& png, int w, int h, const std::string& capt
       std::max(w, 128), png, w, h, caption);
 }
 
-// A model's caption: its name (the file's stem), method and size, true file bytes and the
-// image's PSNR (a synthesis: none, it makes new texture).
+// A model's caption: its name (the file's stem), method and size (a mixture: its objective),
+// true file bytes and the image's PSNR (a synthesis: none, it makes new texture).
 std::string caption(const ModelComparison& c, std::size_t image) {
   std::string s = fmt::format(
-      "<b>{}</b><br>{} {}<br>{}", svg::escape(fs::path(c.name).stem().string()),
+      "<b>{}</b><br>{} {}{}<br>{}", svg::escape(fs::path(c.name).stem().string()),
       svg::escape(std::string(c.model->method())), svg::escape(c.model->size_text()),
+      objective_text(*c.model),
       c.file_bytes > 0 ? fmt::format("file {} bytes", c.file_bytes) : std::string("no file"));
   if (c.model->synthesises())
     return s + fmt::format("<br><i>synthesis of new texture</i> (seed {}): no pixel-wise PSNR",
