@@ -146,7 +146,7 @@ void run_compare(const CompareOptions& o) {
   if (!o.report.empty()) check_output_folder(o.report, o.overwrite);
   const BtfSource src = BtfSource::open(o.btf);
   const BtfInfo& info = src.info();
-  std::optional<Btf> tile_data;
+  std::optional<Btf> tile_data, first_tile;
   std::vector<ModelComparison> results;
   btfgmm::CompareOptions co;
   co.worst_pairs = o.worst;
@@ -178,6 +178,7 @@ void run_compare(const CompareOptions& o) {
     if (!tile_data || !same_tile(tile_data->origin(), tile)) tile_data = src.load(tile);
     results.push_back(
         compare_model(*tile_data, models[k], path, std::uint64_t(fs::file_size(path)), co));
+    if (k == 0 && !o.report.empty()) first_tile = *tile_data;  // the report's side by side
     if (!o.quiet)
       fmt::print(stderr, "compared {} with its {}x{} tile of {} in {}\n", path, tile.width,
                  tile.height, o.btf, human_seconds(seconds_since(t0)));
@@ -215,7 +216,9 @@ void run_compare(const CompareOptions& o) {
     }
   }
   if (!o.report.empty()) {
-    write_report(o.report, o.btf, results);
+    ReportOptions ro;
+    ro.data = first_tile ? &*first_tile : nullptr;
+    write_report(o.report, o.btf, results, ro);
     const std::string json = json_text(all);
     btfgmm::write_file_atomically(
         fs::path(o.report) / "compare.json",

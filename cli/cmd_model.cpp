@@ -23,6 +23,7 @@
 #include "btfgmm/model/model.hpp"
 #include "btfgmm/model/model_file.hpp"
 #include "btfgmm/model/predict.hpp"
+#include "budget_fit.hpp"
 #include "cli_util.hpp"
 #include "commands.hpp"
 #include "mpi_processes.hpp"
@@ -45,6 +46,8 @@ struct FitOptions {
   bool overwrite = false, quiet = false;
   std::string checkpoint, resume, continue_from, log;
   int checkpoint_every = 1;
+  std::uint64_t budget = 0;  // --budget BYTES (0: none)
+  double ratio = 0.0;        // --ratio R (0: none)
   // The options given on the command line, by long name ("--components"), each with the
   // names it goes by ("-M/--components") for messages.
   std::map<std::string, std::string> given;
@@ -325,8 +328,30 @@ void run_mixture_fit(const FitOptions& options,
   if (!o.quiet) print_written(r.output, fit, start);
 }
 
+// With --budget or --ratio, the method and size are chosen (cmd_budget.cpp): the options that
+// set them, or belong to one method's fit, are errors.
+void run_fit_within_budget(const FitOptions& o) {
+  const char* budget = o.given.count("--budget") ? "--budget" : "--ratio";
+  if (o.given.count("--budget") && o.given.count("--ratio"))
+    throw Error(Error::Kind::kArgument,
+                "--budget and --ratio both set the budget; give one of them");
+  refuse_options(
+      o,
+      {"--method", "--components", "--clusters", "--degree", "--precision", "--objective",
+       "--epsilon", "--checkpoint", "--checkpoint-every", "--resume", "--continue", "--log"},
+      fmt::format("with {}: it chooses the method and size itself (each method's "
+                  "ladder of sizes, stored as sweep stores them)",
+                  budget));
+  if (const auto processes = job_processes(); processes && processes->size() > 1)
+    throw Error(Error::Kind::kArgument,
+                fmt::format("fit {} runs in one process; start it without mpirun", budget));
+  run_budget_fit({o.input, o.out, o.tile, o.budget, o.ratio, o.seed, o.threads, o.iterations,
+                  o.overwrite, o.quiet});
+}
+
 // An MPI job (mpirun) fits the mixture over its processes; an error in one ends them all.
 void run_fit(const FitOptions& o) {
+  if (o.given.count("--budget") || o.given.count("--ratio")) return run_fit_within_budget(o);
   const std::shared_ptr<btfgmm::Communicator> processes = job_processes();
   if (o.method != btfgmm::kMixtureMethod) {
     if (processes && processes->size() > 1)
@@ -464,6 +489,13 @@ void register_fit(CLI::App& app, Commands& commands) {
                 "docs/FORMAT.md), f32 (exact, for --continue to match one longer fit) or f16; "
                 "other methods: f32, f16 or q8 (8 bits with an offset and scale per component, "
                 "default)");
+  f->add_option("--budget", fit->budget,
+                "Choose the method and size that decode the tile best (PSNR) within this many "
+                "bytes of model file; prints the candidates tried")
+      ->check(CLI::Range(std::uint64_t(1), std::uint64_t(1) << 50));
+  f->add_option("--ratio", fit->ratio,
+                "As --budget, with the budget the tile's data bytes (a byte a value) over R")
+      ->check(CLI::Range(1.0, 1e9));
   f->add_option("-o,--output", fit->out, "The model file to write (.btfgmm)");
   f->add_option("--checkpoint", fit->checkpoint,
                 "Save the fit's state here (atomically) every --checkpoint-every iterations and "

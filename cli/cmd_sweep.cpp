@@ -252,6 +252,7 @@ void run_sweep_command(const SweepOptions& o) {
                                 s.skipped[0].method, s.skipped[0].settings, s.skipped[0].message));
   ReportOptions ro;
   ro.command = "sweep";
+  ro.data = &tile;
   ro.skipped = s.skipped;
   ro.note =
       fmt::format("{} of {} settings fitted, factors stored as {}, seed {}{}", s.models.size(),

@@ -6,7 +6,8 @@ Usage: readme_check.py README.md BTFGMM_BINARY SOURCE_DIR
 
 The commands run in one empty temporary folder holding a link to the source tree's examples/,
 at small sizes so that the whole README takes seconds: `generate` renders fewer directions,
-a fit takes at most MAX_COMPONENTS components and a sweep two iterations a fit (every other
+a fit takes at most MAX_COMPONENTS components and a sweep (or a fit --budget, which fits
+candidates) two iterations a fit (every other
 option as written). Lines that
 are not commands of the tool (`make ...`) and indented comment lines are skipped. A fit
 whose checkpoint a later command resumes is interrupted with SIGINT, as the README says a
@@ -25,7 +26,7 @@ import time
 
 MAX_COMPONENTS = 100
 PYTHON_BLOCK = "<python>"
-SWEEP_ITERATIONS = ["--iterations", "2"]  # every fit of a sweep, unless the README sets them
+SWEEP_ITERATIONS = ["--iterations", "2"]  # every fit of a sweep or a fit --budget, unless set
 SMALL_GENERATE = ["--lights", "spiral:9", "--views", "spiral:4", "--supersample", "1"]
 
 
@@ -79,7 +80,9 @@ def smaller(words):
             out[i + 1] = str(MAX_COMPONENTS)
     if len(out) > 1 and out[1] == "generate":
         out += SMALL_GENERATE
-    if len(out) > 1 and out[1] == "sweep" and "--iterations" not in out:
+    chooses = out[1:2] == ["sweep"] or (out[1:2] == ["fit"] and
+                                        ("--budget" in out or "--ratio" in out))
+    if chooses and "--iterations" not in out:
         out += SWEEP_ITERATIONS
     return out
 

@@ -146,7 +146,8 @@ std::string model_row(const ModelComparison& c, bool pareto) {
   const ModelFrame& f = c.model->frame();
   return fmt::format(
       "<tr><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td>"
-      "<td>{}</td><td>{}</td><td>{:.3f}</td><td>{}<br><small>{}; {}</small></td><td>{}</td><td>{}</td>"
+      "<td>{}</td><td>{}</td><td>{:.3f}</td><td>{}<br><small>{}; "
+      "{}</small></td><td>{}</td><td>{}</td>"
       "<td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>",
       escape(c.name), escape(std::string(c.model->method())), escape(c.model->size_text()),
       tile_text(c.tile), c.model->parameter_count(), rmse_text(q.rmse, f.format), db(q.psnr_db),
@@ -385,7 +386,9 @@ void write_report(const fs::path& folder, const std::string& btf_name,
   if (one) h += cards(models[0]);
   h += models_table(models, options);
   const std::string curves = report::curves_section(models);
-  if (!one) h += curves + report::methods_figure(folder, models);
+  if (!one)
+    h += curves + report::methods_figure(folder, models) +
+         report::side_by_side(folder, models, options.data);
   const std::array<double, 2> map_range = psnr_map_scale(models);
   for (std::size_t k = 0; k < models.size(); ++k) h += model_section(folder, models, k, map_range);
   if (one) h += curves;

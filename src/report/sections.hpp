@@ -1,5 +1,6 @@
 // Parts of the HTML report (report.cpp) written in files of their own: the curves
-// (curves.cpp) and the image decoded by each method (methods_figure.cpp), and the number
+// (curves.cpp), the image decoded by each method (methods_figure.cpp) and the models side by
+// side (side_by_side.cpp), and the number
 // formats and file helpers every part shares.
 #pragma once
 
@@ -72,5 +73,15 @@ std::string curves_section(std::span<const ModelComparison> models);
 // of the first model's tile; writes its PNG pictures into `folder`. Empty for one model.
 std::string methods_figure(const std::filesystem::path& folder,
                            std::span<const ModelComparison> models);
+
+// The models of the first model's tile side by side: a row per (light, view) pair (the first
+// model's two worst images by PSNR and a typical one, its median PSNR), original | model 1 |
+// model 2 | ..., each labelled with its file, method, size and that image's PSNR; a synthesis
+// model's picture says it is new texture, and beside the data tiled 2 x 2 its synthesis at
+// twice the tile's size. `data`: the first model's tile of the data (null: the pairs the first
+// model pictures). Writes its PNG pictures into `folder`. Empty for fewer than two models of
+// that tile.
+std::string side_by_side(const std::filesystem::path& folder,
+                         std::span<const ModelComparison> models, const Btf* data);
 
 }  // namespace btfgmm::report

@@ -1,0 +1,59 @@
+// The method and size that decode a tile best within a budget of true file bytes: each
+// pixel-wise method's ladder of sizes (MethodInfo::ladder, as `sweep` fits it) walked from its
+// smallest model up while the file fits, every setting fitted and measured as run_sweep does,
+// and the candidate that fits with the highest PSNR on the tile kept. `btfgmm fit --budget`
+// and `--ratio` format what choose_within_budget returns.
+#pragma once
+
+#include <atomic>
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "btfgmm/core/btf.hpp"
+#include "btfgmm/measure/sweep.hpp"
+#include "btfgmm/methods/representation.hpp"
+
+namespace btfgmm {
+
+struct BudgetRequest {
+  std::uint64_t budget = 0;          // true file bytes, at most
+  DataSource source;                 // where the tile was read from (the model's provenance)
+  std::vector<std::string> methods;  // by name; empty: every method
+  std::uint64_t seed = 1;
+  int threads = 0;     // 0: OpenMP's default
+  int iterations = 0;  // not 0: the mixture's EM iterations (the other methods: their own)
+  std::function<void(const SweepProgress&)> progress;  // each fit's, as run_sweep reports it
+  const std::atomic<bool>* stop = nullptr;
+};
+
+// One setting fitted.
+struct BudgetCandidate {
+  std::string method, settings, size;  // settings_text, Representation::size_text
+  std::uint64_t file_bytes = 0;        // the true file, the choice's note in its provenance
+  double psnr_db = 0.0;                // on the tile
+  bool fits = false;                   // file_bytes <= the budget
+};
+
+struct BudgetChoice {
+  std::vector<BudgetCandidate> candidates;  // in the order fitted
+  std::vector<SkippedSetting> skipped;      // settings a method refused for the tile
+  // Methods left out: they synthesise new texture, which no pixel-wise PSNR measures.
+  std::vector<std::string> synthesis_methods;
+  std::size_t chosen = 0;                 // the index of the candidate kept
+  std::shared_ptr<Representation> model;  // it, its provenance noting the choice
+  std::vector<std::uint8_t> file;         // its model file's bytes (file_bytes of it)
+};
+
+// The note a chosen model's provenance carries (FitLog::settings): ("chosen by", this).
+std::string budget_note(std::uint64_t budget);
+
+// Fits and measures the candidates and keeps the best that fits. Throws Error(kArgument) for
+// a budget of 0, for an unknown method (the nearest name), and, when no method's smallest file
+// fits, naming the smallest file possible and its method.
+BudgetChoice choose_within_budget(const Btf& tile, const BudgetRequest& request);
+
+}  // namespace btfgmm
