@@ -40,6 +40,7 @@ struct FitOptions {
   std::string input, out, tile, precision, method = "gm", objective;
   std::size_t components = 0, clusters = 0, degree = 0;  // 0: the method's default
   int iterations = 0;                                    // 0: the method's default
+  int levels = 0;                                        // 0: the method's default
   double epsilon = 0.0;
   std::uint64_t seed = 1;
   int threads = 0;
@@ -89,6 +90,7 @@ btfgmm::FitOptions library_options(const FitOptions& o) {
   f.clusters = o.clusters;
   f.degree = o.degree;
   f.iterations = o.iterations;
+  f.levels = o.levels;
   if (o.given.count("--epsilon")) f.epsilon = o.epsilon;
   f.seed = o.seed;
   f.threads = o.threads;
@@ -112,12 +114,12 @@ btfgmm::FitRequest new_fit_request(const FitOptions& o) {
 // With --resume, the interrupted fit continued: everything (the output included) from its
 // checkpoint, which keeps the state unless --checkpoint names another.
 btfgmm::FitRequest resume_fit_request(const FitOptions& o) {
-  refuse_options(
-      o,
-      {"--output", "--tile", "--components", "--seed", "--precision", "--overwrite", "--continue"},
-      fmt::format("with --resume: the fit goes on with the input, tile, components, "
-                  "seed, precision and output its checkpoint '{}' holds",
-                  o.resume));
+  refuse_options(o,
+                 {"--output", "--tile", "--components", "--seed", "--precision", "--overwrite",
+                  "--continue", "--levels"},
+                 fmt::format("with --resume: the fit goes on with the input, tile, components, "
+                             "seed, precision and output its checkpoint '{}' holds",
+                             o.resume));
   btfgmm::FitRequest r = btfgmm::resume_request(o.resume);
   if (!o.checkpoint.empty()) r.checkpoint = o.checkpoint;
   // A checkpoint holds EM's state, before any refinement: the objective is the command's.
@@ -129,7 +131,7 @@ btfgmm::FitRequest resume_fit_request(const FitOptions& o) {
 // With --continue, the finished mixture's EM goes on to --iterations in all, from its stored
 // parameters, on its data (the input, or the source its provenance records).
 btfgmm::FitRequest continue_fit_request(const FitOptions& o) {
-  refuse_options(o, {"--tile", "--components", "--seed", "--precision", "--objective"},
+  refuse_options(o, {"--tile", "--components", "--seed", "--precision", "--objective", "--levels"},
                  fmt::format("with --continue: the fit goes on with the tile, components, seed, "
                              "precision and objective of the model '{}'",
                              o.continue_from));
@@ -471,6 +473,11 @@ void register_fit(CLI::App& app, Commands& commands) {
                 "Maximum EM iterations (gm, default 40; with --resume or --continue, the total "
                 "to go on to), re-assignment rounds (lpca) or Levenberg-Marquardt steps (plm-rf)")
       ->check(CLI::Range(1, 100000));
+  f->add_option("--levels", fit->levels,
+                "3d-car, 2d-car, gmrf: levels K of each subspace image's Gaussian-Laplacian "
+                "pyramid, a model each (default 3, or as many as the tile holds with the "
+                "coarsest level at least 8 x 8 pixels)")
+      ->check(CLI::Range(1, 16));
   f->add_option("--epsilon", fit->epsilon, "Stop when the relative gain of L is below this")
       ->check(CLI::Range(0.0, 1.0))
       ->capture_default_str();
@@ -488,7 +495,8 @@ void register_fit(CLI::App& app, Commands& commands) {
                 "gm: compact (default: each parameter quantised with a stated step, zstd; "
                 "docs/FORMAT.md), f32 (exact, for --continue to match one longer fit) or f16; "
                 "other methods: f32, f16 or q8 (8 bits with an offset and scale per component, "
-                "default)");
+                "default); 3d-car, 2d-car, gmrf: the range map's (f16 default; their few model "
+                "parameters are always f32)");
   f->add_option("--budget", fit->budget,
                 "Choose the method and size that decode the tile best (PSNR) within this many "
                 "bytes of model file; prints the candidates tried")

@@ -37,7 +37,14 @@ struct RenderOptions {
   bool overwrite = false, json = false, quiet = false, force = false;
 };
 
-// What the comparison figure states besides its metrics: the model and the scene.
+// A synthesis model (the texture models) makes new texture with the data's statistics: its
+// pixels are not the data's, so the pixel-wise figures of --compare measure nothing of it.
+constexpr const char* kSynthesisNote =
+    "synthesis: new texture with the data's statistics, the pixel-wise RMSE, PSNR and SSIM are "
+    "NOT meaningful (btfgmm compare measures its statistics)";
+
+// What the comparison figure states besides its metrics: the model and the scene (and, for a
+// synthesis model, that the pixel-wise figures mean nothing).
 btfgmm::FigureCaption figure_caption(const RenderOptions& o, const btfgmm::Representation& model) {
   const auto angles = [](const std::string& dir) {
     const auto comma = dir.find(',');
@@ -56,6 +63,7 @@ btfgmm::FigureCaption figure_caption(const RenderOptions& o, const btfgmm::Repre
       fmt::format("model evaluated to {:g} levels (--tolerance); data interpolated "
                   "between measured directions",
                   o.tolerance));
+  if (model.synthesises()) c.scene.push_back(kSynthesisNote);
   return c;
 }
 
@@ -254,10 +262,12 @@ void run_render(const RenderOptions& o) {
     j["psnr_db"] = c.psnr;
     j["ssim"] = c.ssim;
     j["object_pixels"] = c.pixels;
+    j["pixelwise_meaningful"] = !model->synthesises();
     summary += fmt::format(
         "data | model | {:g}x difference: RMSE {:.2f}, PSNR {:.2f} dB, SSIM {:.3f} "
         "over {} object pixels\n",
         o.difference_scale, c.rmse, c.psnr, c.ssim, c.pixels);
+    if (model->synthesises()) summary += fmt::format("{}\n", kSynthesisNote);
   } else {
     const btfgmm::Rendering& r = model_img ? *model_img : *data_img;
     btfgmm::write_picture(o.out, r.width, r.height, r.rgb);

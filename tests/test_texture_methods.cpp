@@ -11,6 +11,7 @@
 #include "btfgmm/core/error.hpp"
 #include "btfgmm/io/utia.hpp"
 #include "btfgmm/measure/compare.hpp"
+#include "btfgmm/methods/fit_options.hpp"
 #include "btfgmm/methods/registry.hpp"
 #include "btfgmm/methods/texture_models.hpp"
 #include "btfgmm/model/model_file.hpp"
@@ -136,6 +137,69 @@ TEST(TextureMethods, SettingsTheyDoNotTakeAreRefused) {
             std::string::npos);
 }
 
+// --levels: a model per level of the pyramid, as many levels as the tile holds (16 x 16: 2,
+// the coarsest 8 x 8); more is an error naming the option and the most allowed.
+TEST(TextureMethods, PyramidLevelsAsAskedWithinWhatTheTileHolds) {
+  for (const char* method : {"3d-car", "2d-car", "gmrf"}) {
+    SCOPED_TRACE(method);
+    MethodSettings s;
+    s.clusters = 2;
+    s.levels = 1;
+    const auto one = find_method(method).fit(tile16(), s);
+    s.levels = 0;  // the default: 3, or what the tile holds
+    const auto two = find_method(method).fit(tile16(), s);
+    EXPECT_EQ(dynamic_cast<const TextureModel&>(*one).levels(), 1);
+    EXPECT_EQ(dynamic_cast<const TextureModel&>(*two).levels(), 2);
+    EXPECT_GT(two->parameter_count(), one->parameter_count());
+    const auto details = two->details();
+    const auto it = std::find_if(details.begin(), details.end(),
+                                 [](const auto& d) { return d.first == "pyramid levels"; });
+    ASSERT_NE(it, details.end());
+    EXPECT_EQ(it->second, "2 (Gaussian-Laplacian, a model each: 16 x 16, 8 x 8)");
+    const auto back = read_representation(representation_file_bytes(*two), "two.btfgmm");
+    EXPECT_EQ(back->payload(), two->payload());
+    s.levels = 3;
+    EXPECT_NE(error_of([&] {
+                find_method(method).fit(tile16(), s);
+              }).find("--levels 3: a 16 x 16 tile holds at most 2 pyramid levels"),
+              std::string::npos);
+  }
+  // A method without a pyramid refuses --levels; so does the mixture.
+  FitOptions o;
+  o.method = "pca-btf";
+  o.levels = 2;
+  EXPECT_NE(error_of([&] {
+              method_settings(o, find_method("pca-btf"));
+            }).find("--levels 2 cannot apply to --method pca-btf"),
+            std::string::npos);
+  o.method = "gm";
+  EXPECT_NE(error_of([&] { mixture_fit_request(o, "in", "out"); }).find("--levels applies to"),
+            std::string::npos);
+}
+
+// --precision sets the range map's storage (the models' parameters stay f32): honoured, not
+// ignored.
+TEST(TextureMethods, PrecisionSetsTheRangeMapsStorage) {
+  FitOptions o;
+  o.method = "3d-car";
+  o.clusters = 2;
+  EXPECT_EQ(method_settings(o, find_method("3d-car")).encoding, FactorEncoding::kF16);
+  std::vector<std::size_t> sizes;
+  for (const char* p : {"f32", "f16", "q8"}) {
+    o.precision = p;
+    const MethodSettings s = method_settings(o, find_method("3d-car"));
+    const auto m = find_method("3d-car").fit(tile16(), s);
+    EXPECT_EQ(to_string(m->encoding()), p);
+    const auto back = read_representation(representation_file_bytes(*m), "p.btfgmm");
+    EXPECT_EQ(back->encoding(), m->encoding());
+    EXPECT_EQ(back->payload(), m->payload());
+    sizes.push_back(m->payload().size());
+  }
+  // 256 heights: 4, 2 and 1 bytes each (q8 adds its offset and scale).
+  EXPECT_EQ(sizes[0] - sizes[1], 512u);
+  EXPECT_EQ(sizes[1] - sizes[2], 256u - 8u);
+}
+
 TEST(TextureMethods, APixelWiseMethodHasNoSeedAndNoStatistics) {
   MethodSettings s;
   s.components = 2;
@@ -169,6 +233,20 @@ TEST(TextureMethods, CommandFitsInfoDecodesWithASeedAndWritesARangeMap) {
   r = test::run_cli("compare " + d + "/btf " + d + "/c.btfgmm", "tex");
   EXPECT_NE(r.out.find("NOT meaningful"), std::string::npos) << r.out << r.err;
   EXPECT_NE(r.out.find("histogram"), std::string::npos) << r.out;
+  // render --compare says that its pixel-wise figures mean nothing for a synthesis.
+  r = test::run_cli(
+      "render " + d + "/c.btfgmm --compare " + d + "/btf --size 48 --json -o " + d + "/fig.png",
+      "tex");
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_NE(r.out.find("\"pixelwise_meaningful\":false"), std::string::npos) << r.out;
+  r = test::run_cli("render " + d + "/c.btfgmm --compare " + d + "/btf --size 48 --overwrite -o " +
+                        d + "/fig.png",
+                    "tex");
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_NE(r.err.find("synthesis: new texture with the data's statistics, the pixel-wise RMSE, "
+                       "PSNR and SSIM are NOT meaningful"),
+            std::string::npos)
+      << r.err;
   r = test::run_cli("rangemap " + d + "/btf -o " + d + "/range.exr", "tex");
   EXPECT_EQ(r.status, 0) << r.err;
   EXPECT_TRUE(fs::exists(dir / "range.exr"));

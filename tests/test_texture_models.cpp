@@ -3,13 +3,16 @@
 // determinism, and seamless tiling.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <utility>
 #include <vector>
 
+#include "btfgmm/synth/generate.hpp"
 #include "methods/car.hpp"
 #include "methods/colour_texture.hpp"
 #include "methods/gmrf.hpp"
+#include "methods/pyramid.hpp"
 
 namespace btfgmm::detail {
 namespace {
@@ -134,59 +137,162 @@ Field training_image(TextureKind kind, int size, std::uint64_t seed) {
   return rgb;
 }
 
-// Synthesis from a model estimated on a training image reproduces its mean, covariance and
-// neighbour correlations.
-class Reproduces : public ::testing::TestWithParam<TextureKind> {};
-
-TEST_P(Reproduces, TheTrainingImagesStatistics) {
-  const Field train = training_image(GetParam(), 96, 9);
-  const auto model = fit_colour_texture(GetParam(), train, kMaxCausalOrder);
-  const Field out = model->synthesise(128, 128, 10);
+// A synthesis `out` has the training image's mean (within a quarter deviation), covariance
+// (within `cov` of the variance) and neighbour correlations (within `corr`).
+void expect_statistics_of(const Field& train, const Field& out, double cov, double corr) {
   for (int c = 0; c < 3; ++c) {
     const double sd = std::sqrt(covariance(train, c, c, 0, 0));
     EXPECT_NEAR(mean_of(out, c), mean_of(train, c), 0.25 * sd) << "mean " << c;
     for (int b = 0; b < 3; ++b)
-      EXPECT_NEAR(covariance(out, c, b, 0, 0), covariance(train, c, b, 0, 0), 0.2 * sd * sd)
+      EXPECT_NEAR(covariance(out, c, b, 0, 0), covariance(train, c, b, 0, 0), cov * sd * sd)
           << "covariance " << c << b;
     const std::pair<int, int> lags[] = {{1, 0}, {0, 1}, {1, 1}};
     for (auto [dx, dy] : lags) {
       const double rt = covariance(train, c, c, dx, dy) / covariance(train, c, c, 0, 0);
       const double ro = covariance(out, c, c, dx, dy) / covariance(out, c, c, 0, 0);
-      EXPECT_NEAR(ro, rt, 0.08) << "correlation " << c << " at " << dx << "," << dy;
+      EXPECT_NEAR(ro, rt, corr) << "correlation " << c << " at " << dx << "," << dy;
     }
+  }
+}
+
+// Synthesis from a model estimated on a training image reproduces its mean, covariance (within
+// a fifth of the variance) and neighbour correlations (within 0.08). A pyramid of two levels
+// does so more loosely (within 0.3 and 0.15; measured: 0.24 and 0.115 at worst): its levels
+// are synthesised independently, while the data's are correlated (REDUCE and EXPAND are not
+// ideal filters), and this training image is one CAR field, the one-level model's own class.
+class Reproduces : public ::testing::TestWithParam<TextureKind> {};
+
+TEST_P(Reproduces, TheTrainingImagesStatistics) {
+  const Field train = training_image(GetParam(), 96, 9);
+  for (int levels : {1, 2}) {
+    SCOPED_TRACE(levels);
+    const auto model = fit_colour_texture(GetParam(), train, kMaxCausalOrder, levels);
+    EXPECT_EQ(model->levels(), levels);
+    expect_statistics_of(train, model->synthesise(128, 128, 10), levels == 1 ? 0.2 : 0.3,
+                         levels == 1 ? 0.08 : 0.15);
   }
 }
 
 TEST_P(Reproduces, TheSameImageFromTheSameSeed) {
   const Field train = training_image(GetParam(), 48, 9);
-  const auto model = fit_colour_texture(GetParam(), train, 2);
+  const auto model = fit_colour_texture(GetParam(), train, 2, 2);
   EXPECT_EQ(model->synthesise(40, 24, 3).values, model->synthesise(40, 24, 3).values);
   EXPECT_NE(model->synthesise(40, 24, 3).values, model->synthesise(40, 24, 4).values);
 }
 
 // The mean squared difference of neighbours across the torus's seams (x = W-1 to 0, y = H-1
-// to 0) against inside: a seam shows as a larger jump.
+// to 0) against inside: a seam shows as a larger jump. One level and a pyramid of three.
 TEST_P(Reproduces, ATextureThatTilesWithoutSeams) {
   const Field train = training_image(GetParam(), 64, 11);
-  const Field f = fit_colour_texture(GetParam(), train, 2)->synthesise(128, 128, 12);
-  double seam = 0, inside = 0;
-  std::size_t ns = 0, ni = 0;
-  for (int y = 0; y < 128; ++y)
-    for (int x = 0; x < 128; ++x)
-      for (int c = 0; c < 3; ++c) {
-        const double h = f.wrapped(x + 1, y, c) - f.at(x, y, c);
-        const double v = f.wrapped(x, y + 1, c) - f.at(x, y, c);
-        (x == 127 ? seam : inside) += h * h, ++(x == 127 ? ns : ni);
-        (y == 127 ? seam : inside) += v * v, ++(y == 127 ? ns : ni);
-      }
-  const double ratio = (seam / double(ns)) / (inside / double(ni));
-  EXPECT_GT(ratio, 0.75);
-  EXPECT_LT(ratio, 1.33);
+  for (int levels : {1, 3}) {
+    SCOPED_TRACE(levels);
+    const Field f = fit_colour_texture(GetParam(), train, 2, levels)->synthesise(128, 128, 12);
+    double seam = 0, inside = 0;
+    std::size_t ns = 0, ni = 0;
+    for (int y = 0; y < 128; ++y)
+      for (int x = 0; x < 128; ++x)
+        for (int c = 0; c < 3; ++c) {
+          const double h = f.wrapped(x + 1, y, c) - f.at(x, y, c);
+          const double v = f.wrapped(x, y + 1, c) - f.at(x, y, c);
+          (x == 127 ? seam : inside) += h * h, ++(x == 127 ? ns : ni);
+          (y == 127 ? seam : inside) += v * v, ++(y == 127 ? ns : ni);
+        }
+    const double ratio = (seam / double(ns)) / (inside / double(ni));
+    EXPECT_GT(ratio, 0.75);
+    EXPECT_LT(ratio, 1.33);
+  }
 }
 
 INSTANTIATE_TEST_SUITE_P(Kinds, Reproduces,
                          ::testing::Values(TextureKind::kCar3d, TextureKind::kCar2d,
                                            TextureKind::kGmrf));
+
+// The pyramid collapses exactly into the image it was made of, at a size that halves evenly
+// and at one that does not; its levels halve (rounded up); a constant image has Laplacian
+// levels of 0 and the constant at the coarsest.
+TEST(Pyramid, CollapsesExactlyIntoItsImage) {
+  for (const auto& [w, h] : {std::pair{32, 16}, std::pair{21, 13}}) {
+    const Field f = synthesise_car(known_car3d(), w, h, 3);
+    const std::vector<Field> levels = laplacian_pyramid(f, 3);
+    ASSERT_EQ(levels.size(), 3u);
+    EXPECT_EQ(levels[1].width, level_side(w, 1));
+    EXPECT_EQ(levels[2].height, level_side(h, 2));
+    const Field back = collapse(levels);
+    ASSERT_EQ(back.values.size(), f.values.size());
+    for (std::size_t i = 0; i < f.values.size(); ++i)
+      EXPECT_NEAR(back.values[i], f.values[i], 1e-9);
+  }
+  EXPECT_EQ(level_side(21, 2), 6);
+  EXPECT_EQ(max_levels(32, 32, 8), 3);
+  EXPECT_EQ(max_levels(16, 40, 8), 2);
+  EXPECT_EQ(max_levels(12, 12, 8), 1);
+  Field flat(16, 16, 1);
+  for (double& v : flat.values) v = 7.0;
+  const std::vector<Field> levels = laplacian_pyramid(flat, 3);
+  for (double v : levels[0].values) EXPECT_NEAR(v, 0.0, 1e-12);
+  for (double v : levels[2].values) EXPECT_NEAR(v, 7.0, 1e-12);
+}
+
+// An image of a generated material, under a light 30 degrees from the top, seen from the top.
+Field material_image(const char* material, int size) {
+  GenerateConfig g;
+  g.material = material;
+  g.size = size;
+  g.seed = 5;
+  g.supersample = 1;
+  g.lights = DirectionSet({Direction{30, 0}});
+  g.views = DirectionSet({Direction{0, 0}});
+  const Btf btf = generate(g);
+  Field f(size, size, 3);
+  f.values.assign(btf.data().begin(), btf.data().end());
+  return f;
+}
+
+// The variance of the luminance on each level of its Laplacian pyramid of 3 levels: the
+// image's energy at each scale.
+std::vector<double> scale_variances(const Field& f) {
+  Field lum(f.width, f.height, 1);
+  for (std::size_t i = 0; i < f.pixels(); ++i)
+    lum.values[i] = (f.values[i * 3] + f.values[i * 3 + 1] + f.values[i * 3 + 2]) / 3;
+  std::vector<double> out;
+  for (const Field& l : laplacian_pyramid(lum, 3)) out.push_back(covariance(l, 0, 0, 0, 0));
+  return out;
+}
+
+// The mean over the scales of |ln(variance of the synthesis / the data's)|, the synthesis's
+// variances averaged over 3 seeds.
+double scale_error(const Field& data, const ColourTexture& model) {
+  const std::vector<double> d = scale_variances(data);
+  std::vector<double> s(d.size(), 0.0);
+  for (std::uint64_t seed = 1; seed <= 3; ++seed) {
+    const std::vector<double> v = scale_variances(model.synthesise(data.width, data.height, seed));
+    for (std::size_t k = 0; k < s.size(); ++k) s[k] += v[k] / 3;
+  }
+  double e = 0;
+  for (std::size_t k = 0; k < s.size(); ++k)
+    e += std::abs(std::log(s[k] / d[k])) / double(s.size());
+  return e;
+}
+
+// What the pyramid is for: structure larger than a neighbourhood of radius 3. On generated
+// corduroy (ridges) and knit (loops), 32 x 32, each model of two levels reproduces the image's
+// energy at each of three scales (the variances of its Laplacian levels) better than the
+// model of one level, and over the six, by 15% at least. Measured (the error above, one
+// level -> two): corduroy 3D CAR 0.72 -> 0.45, 2D CAR 0.86 -> 0.64, GMRF 0.83 -> 0.75; knit
+// 0.48 -> 0.38, 0.45 -> 0.39, 0.46 -> 0.39; mean 0.63 -> 0.50 (21% less).
+TEST(Pyramid, TwoLevelsReproduceTheEnergyAtEachScaleBetter) {
+  double one_sum = 0, two_sum = 0;
+  for (const char* material : {"corduroy", "knit"}) {
+    const Field data = material_image(material, 32);
+    for (TextureKind kind : {TextureKind::kCar3d, TextureKind::kCar2d, TextureKind::kGmrf}) {
+      const double one = scale_error(data, *fit_colour_texture(kind, data, kMaxCausalOrder, 1));
+      const double two = scale_error(data, *fit_colour_texture(kind, data, kMaxCausalOrder, 2));
+      EXPECT_LT(two, one) << material << " " << int(kind);
+      one_sum += one, two_sum += two;
+    }
+  }
+  EXPECT_LT(two_sum, 0.85 * one_sum) << one_sum / 6 << " -> " << two_sum / 6;
+}
 
 }  // namespace
 }  // namespace btfgmm::detail

@@ -9,8 +9,8 @@
 #include <cmath>
 #include <numbers>
 
-#include "core/random.hpp"
 #include "core/eigen_dense.hpp"
+#include "core/random.hpp"
 
 namespace btfgmm::detail {
 namespace {
@@ -206,7 +206,14 @@ double stabilise_car(CarModel& m, double data_trace, int width, int height) {
       trace += v * v;
     }
     trace /= double(f.pixels());
-    if (std::isfinite(trace) && trace <= kMaxVarianceGain * data_trace) return factor;
+    if (std::isfinite(trace) && trace <= kMaxVarianceGain * data_trace) {
+      // The synthesis is linear in the noise: Sigma scaled by data / synthesis gives this
+      // synthesis the data's variance exactly (what the shrink, or an estimate near its unit
+      // root, took away or added).
+      if (trace > 0.0 && data_trace > 0.0)
+        for (double& s : m.sigma) s *= data_trace / trace;
+      return factor;
+    }
     for (double& g : m.gamma) g *= 0.95;
     factor *= 0.95;
   }

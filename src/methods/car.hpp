@@ -71,8 +71,9 @@ Field synthesise_car(const CarModel& m, int width, int height, std::uint64_t see
 // Shrinks gamma (by 0.95 at a time) until a synthesis of width x height (the training
 // image's size) has a covariance trace within kMaxVarianceGain times the training image's
 // `data_trace`: an estimate on a short image may be explosive in raster order, or so near
-// its unit root that the torus synthesis inflates the low frequencies. Returns the factor
-// applied (1: none).
+// its unit root that the torus synthesis inflates the low frequencies. Then Sigma is scaled
+// so that this synthesis's covariance trace is `data_trace` (moment matching: the variance
+// the shrink or the unit root moved restored). Returns the factor applied to gamma (1: none).
 constexpr double kMaxVarianceGain = 1.25;
 double stabilise_car(CarModel& m, double data_trace, int width, int height);
 

@@ -6,9 +6,11 @@
 
 #include <cmath>
 
-#include "methods/car.hpp"
 #include "core/eigen_dense.hpp"
+#include "core/random.hpp"
+#include "methods/car.hpp"
 #include "methods/gmrf.hpp"
+#include "methods/pyramid.hpp"
 
 namespace btfgmm::detail {
 namespace {
@@ -99,41 +101,68 @@ KarhunenLoeve get_kl(ByteReader& r) {
   return kl;
 }
 
-// 3D CAR: one model of the RGB vector.
+// The seed of pyramid level k's synthesis: level 0 takes the model's own (a one-level model
+// synthesises as before the pyramid), the others one mixed from it.
+std::uint64_t level_seed(std::uint64_t seed, int level) {
+  return level == 0 ? seed : mix64(seed ^ (0x6C6576656C000000ULL + std::uint64_t(level)));
+}
+
+// The level sizes of a synthesis of width x height, each level synthesised by `make` (level,
+// its width, its height, its seed) and collapsed into the image.
+template <class Make>
+Field synthesise_pyramid(int levels, int width, int height, std::uint64_t seed, Make make) {
+  std::vector<Field> fields;
+  for (int k = 0; k < levels; ++k)
+    fields.push_back(make(k, level_side(width, k), level_side(height, k), level_seed(seed, k)));
+  return collapse(fields);
+}
+
+// 3D CAR: one model of the RGB vector per pyramid level (level 0 the finest).
 class Car3dTexture final : public ColourTexture {
  public:
-  explicit Car3dTexture(CarModel m) : m_(std::move(m)) {}
+  explicit Car3dTexture(std::vector<CarModel> levels) : levels_(std::move(levels)) {}
   Field synthesise(int width, int height, std::uint64_t seed) const override {
-    return synthesise_car(m_, width, height, seed);
+    return synthesise_pyramid(int(levels_.size()), width, height, seed,
+                              [this](int k, int w, int h, std::uint64_t s) {
+                                return synthesise_car(levels_[std::size_t(k)], w, h, s);
+                              });
   }
-  std::size_t parameter_count() const override { return m_.parameter_count(); }
-  std::string neighbourhood() const override { return neighbourhood_text(m_.neighbourhood); }
-  void put(ByteWriter& w) const override { put_car(w, m_); }
+  std::size_t parameter_count() const override {
+    std::size_t n = 0;
+    for (const CarModel& m : levels_) n += m.parameter_count();
+    return n;
+  }
+  int levels() const override { return int(levels_.size()); }
+  std::string neighbourhood() const override {
+    return neighbourhood_text(levels_[0].neighbourhood) + (levels_.size() > 1 ? " (level 0)" : "");
+  }
+  void put(ByteWriter& w) const override {
+    for (const CarModel& m : levels_) put_car(w, m);
+  }
 
  private:
-  CarModel m_;
+  std::vector<CarModel> levels_;
 };
 
-// 2D CAR and GMRF: a Karhunen-Loeve transform and a model per band.
+// 2D CAR and GMRF: a Karhunen-Loeve transform and a model per band and pyramid level (level-
+// major: level 0's three bands first).
 template <class Model>
 class BandTexture final : public ColourTexture {
  public:
   BandTexture(KarhunenLoeve kl, std::vector<Model> bands) : kl_(kl), bands_(std::move(bands)) {}
   Field synthesise(int width, int height, std::uint64_t seed) const override {
-    Field bands(width, height, 3);
-    for (int b = 0; b < 3; ++b) {
-      const Field f =
-          synthesise_band(bands_[std::size_t(b)], width, height, seed + std::uint64_t(b));
-      for (std::size_t i = 0; i < f.pixels(); ++i)
-        bands.values[i * 3 + std::size_t(b)] = f.values[i];
-    }
-    return from_bands(bands, kl_);
+    return from_bands(synthesise_pyramid(levels(), width, height, seed,
+                                         [this](int k, int w, int h, std::uint64_t s) {
+                                           return synthesise_level(k, w, h, s);
+                                         }),
+                      kl_);
   }
   std::size_t parameter_count() const override {
     std::size_t n = kl_.mean.size() + kl_.basis.size();
     for (const Model& m : bands_) n += m.parameter_count();
     return n;
   }
+  int levels() const override { return int(bands_.size() / 3); }
   std::string neighbourhood() const override;
   void put(ByteWriter& w) const override {
     put_kl(w, kl_);
@@ -141,6 +170,17 @@ class BandTexture final : public ColourTexture {
   }
 
  private:
+  // Level k's three bands, each from its model, band b from seed + b.
+  Field synthesise_level(int k, int width, int height, std::uint64_t seed) const {
+    Field bands(width, height, 3);
+    for (int b = 0; b < 3; ++b) {
+      const Field f =
+          synthesise_band(bands_[std::size_t(3 * k + b)], width, height, seed + std::uint64_t(b));
+      for (std::size_t i = 0; i < f.pixels(); ++i)
+        bands.values[i * 3 + std::size_t(b)] = f.values[i];
+    }
+    return bands;
+  }
   static Field synthesise_band(const CarModel& m, int w, int h, std::uint64_t s) {
     return synthesise_car(m, w, h, s);
   }
@@ -156,11 +196,13 @@ class BandTexture final : public ColourTexture {
 
 template <>
 std::string BandTexture<CarModel>::neighbourhood() const {
-  return neighbourhood_text(bands_[0].neighbourhood) + " (band 1; causal)";
+  return neighbourhood_text(bands_[0].neighbourhood) +
+         (levels() > 1 ? " (band 1, level 0; causal)" : " (band 1; causal)");
 }
 template <>
 std::string BandTexture<GmrfModel>::neighbourhood() const {
-  return fmt::format("{} symmetric pairs (band 1)", bands_[0].half.size());
+  return fmt::format("{} symmetric pairs (band 1{})", bands_[0].half.size(),
+                     levels() > 1 ? ", level 0" : "");
 }
 
 double covariance_trace(const Field& f) {
@@ -220,39 +262,56 @@ Field from_bands(const Field& bands, const KarhunenLoeve& kl) {
   return out;
 }
 
-std::unique_ptr<ColourTexture> fit_colour_texture(TextureKind kind, const Field& rgb,
-                                                  int max_order) {
-  if (kind == TextureKind::kCar3d) {
-    CarModel m = select_car(rgb, max_order);
-    stabilise_car(m, covariance_trace(rgb), rgb.width, rgb.height);
-    return std::make_unique<Car3dTexture>(std::move(m));
+namespace {
+
+std::unique_ptr<ColourTexture> fit_car3d_texture(const Field& rgb, int max_order, int levels) {
+  std::vector<CarModel> models;
+  for (const Field& level : laplacian_pyramid(rgb, levels)) {
+    models.push_back(select_car(level, max_order));
+    stabilise_car(models.back(), covariance_trace(level), level.width, level.height);
   }
+  return std::make_unique<Car3dTexture>(std::move(models));
+}
+
+}  // namespace
+
+std::unique_ptr<ColourTexture> fit_colour_texture(TextureKind kind, const Field& rgb, int max_order,
+                                                  int levels) {
+  if (kind == TextureKind::kCar3d) return fit_car3d_texture(rgb, max_order, levels);
   const KarhunenLoeve kl = karhunen_loeve(rgb);
   const Field bands = to_bands(rgb, kl);
+  const std::vector<Field> pyramid = laplacian_pyramid(bands, levels);
   if (kind == TextureKind::kCar2d) {
     std::vector<CarModel> models;
-    for (int b = 0; b < 3; ++b) {
-      const Field band = channel_of(bands, b);
-      models.push_back(select_car(band, max_order));
-      stabilise_car(models.back(), covariance_trace(band), band.width, band.height);
-    }
+    for (const Field& level : pyramid)
+      for (int b = 0; b < 3; ++b) {
+        const Field band = channel_of(level, b);
+        models.push_back(select_car(band, max_order));
+        stabilise_car(models.back(), covariance_trace(band), band.width, band.height);
+      }
     return std::make_unique<BandTexture<CarModel>>(kl, std::move(models));
   }
   std::vector<GmrfModel> models;
-  for (int b = 0; b < 3; ++b) models.push_back(select_gmrf(channel_of(bands, b), max_order));
+  for (const Field& level : pyramid)
+    for (int b = 0; b < 3; ++b) models.push_back(select_gmrf(channel_of(level, b), max_order));
   return std::make_unique<BandTexture<GmrfModel>>(kl, std::move(models));
 }
 
-std::unique_ptr<ColourTexture> get_colour_texture(TextureKind kind, ByteReader& r) {
-  if (kind == TextureKind::kCar3d) return std::make_unique<Car3dTexture>(get_car(r, 3));
+std::unique_ptr<ColourTexture> get_colour_texture(TextureKind kind, int levels, ByteReader& r) {
+  const std::size_t n = std::size_t(levels);
+  if (kind == TextureKind::kCar3d) {
+    std::vector<CarModel> models;
+    for (std::size_t k = 0; k < n; ++k) models.push_back(get_car(r, 3));
+    return std::make_unique<Car3dTexture>(std::move(models));
+  }
   const KarhunenLoeve kl = get_kl(r);
   if (kind == TextureKind::kCar2d) {
     std::vector<CarModel> models;
-    for (int b = 0; b < 3; ++b) models.push_back(get_car(r, 1));
+    for (std::size_t b = 0; b < 3 * n; ++b) models.push_back(get_car(r, 1));
     return std::make_unique<BandTexture<CarModel>>(kl, std::move(models));
   }
   std::vector<GmrfModel> models;
-  for (int b = 0; b < 3; ++b) models.push_back(get_gmrf(r));
+  for (std::size_t b = 0; b < 3 * n; ++b) models.push_back(get_gmrf(r));
   return std::make_unique<BandTexture<GmrfModel>>(kl, std::move(models));
 }
 

@@ -3,6 +3,8 @@
 //   3D CAR: one causal autoregressive field of the RGB vector (methods/car.hpp).
 //   2D CAR: the colour decorrelated by the Karhunen-Loeve transform, a CAR per band.
 //   GMRF:   the same bands, a Gaussian Markov random field per band (methods/gmrf.hpp).
+// Each on every level of the image's Gaussian-Laplacian pyramid (methods/pyramid.hpp; Haindl &
+// Filip 2007, Sec. 4): a model per level, the levels synthesised alone and collapsed.
 #pragma once
 
 #include <array>
@@ -34,15 +36,20 @@ class ColourTexture {
   virtual Field synthesise(int width, int height, std::uint64_t seed) const = 0;
   // Stored values (neighbourhood offsets not counted: they are the model's structure).
   virtual std::size_t parameter_count() const = 0;
+  // The Gaussian-Laplacian pyramid's levels (methods/pyramid.hpp), a model each.
+  virtual int levels() const = 0;
   // The neighbourhood(s), for `info`.
   virtual std::string neighbourhood() const = 0;
   virtual void put(ByteWriter& w) const = 0;
 };
 
-// Fits `kind` to an RGB field (neighbourhoods chosen up to `max_order`).
-std::unique_ptr<ColourTexture> fit_colour_texture(TextureKind kind, const Field& rgb,
-                                                  int max_order);
-// Reads what put wrote; r.fail() on anything out of range.
-std::unique_ptr<ColourTexture> get_colour_texture(TextureKind kind, ByteReader& r);
+// Fits `kind` to an RGB field: its Gaussian-Laplacian pyramid of `levels` levels (1: the
+// field itself), a model per level (2D CAR, GMRF: per band and level; the Karhunen-Loeve
+// transform is the field's), neighbourhoods chosen up to `max_order`. The field's sides must
+// hold the levels (max_levels).
+std::unique_ptr<ColourTexture> fit_colour_texture(TextureKind kind, const Field& rgb, int max_order,
+                                                  int levels = 1);
+// Reads what put wrote for a model of `levels` levels; r.fail() on anything out of range.
+std::unique_ptr<ColourTexture> get_colour_texture(TextureKind kind, int levels, ByteReader& r);
 
 }  // namespace btfgmm::detail

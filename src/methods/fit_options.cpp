@@ -48,6 +48,10 @@ FitRequest mixture_fit_request(const FitOptions& o, const std::string& input,
                 fmt::format("{} applies to {} only, not to the Gaussian mixture; leave it out",
                             o.clusters ? "--clusters" : "--degree",
                             o.clusters ? "--method lpca" : "--method plm-rf"));
+  if (o.levels != 0)
+    throw Error(Error::Kind::kArgument,
+                "--levels applies to the pyramid of --method 3d-car, 2d-car or gmrf only, not "
+                "to the Gaussian mixture; leave it out");
   FitRequest r;
   r.input = input;
   r.output = output;
@@ -68,8 +72,14 @@ MethodSettings method_settings(const FitOptions& o, const MethodInfo& method) {
                 fmt::format("{} cannot apply to --method {}: it belongs to the Gaussian "
                             "mixture's EM (--method gm) only; leave it out",
                             o.epsilon ? "--epsilon" : "--objective", method.name));
+  if (o.levels != 0 && !method.pyramid)
+    throw Error(Error::Kind::kArgument,
+                fmt::format("--levels {} cannot apply to --method {}: it has no pyramid (--levels "
+                            "applies to 3d-car, 2d-car and gmrf); leave it out",
+                            o.levels, method.name));
   MethodSettings s;
   s.components = o.components;
+  s.levels = o.levels;
   s.clusters = o.clusters;
   s.degree = o.degree;
   s.iterations = o.iterations;

@@ -36,6 +36,24 @@ double smallest_spectrum(const GmrfModel& m) {
   return lo;
 }
 
+// Moment matching: sigma^2 such that the exact synthesis on the band's torus, whose variance is
+// sigma^2 mean_{k != 0} 1 / mu_k, has the band's variance (the pseudo-likelihood's sigma^2 is
+// a conditional variance, and the shrink lowers the marginal one).
+void match_variance(GmrfModel& m, const Field& band) {
+  double variance = 0.0;
+  for (double v : band.values) variance += (v - m.mean) * (v - m.mean);
+  variance /= double(band.pixels());
+  double inverse = 0.0;
+  for (int k2 = 0; k2 < band.height; ++k2)
+    for (int k1 = 0; k1 < band.width; ++k1)
+      if (k1 != 0 || k2 != 0)
+        inverse += 1.0 / std::max(gmrf_spectrum(m, angular_frequency(k1, band.width),
+                                                angular_frequency(k2, band.height)),
+                                  kMinSpectrum / 4);
+  inverse /= double(band.pixels());
+  if (variance > 0.0 && inverse > 0.0) m.sigma2 = std::max(variance / inverse, 1e-12);
+}
+
 }  // namespace
 
 std::vector<Offset> symmetric_half(int order) {
@@ -88,6 +106,7 @@ GmrfModel estimate_gmrf(const Field& band, const std::vector<Offset>& half) {
     m.shrink = (1.0 - kMinSpectrum) / (1.0 - lo);
     for (double& v : m.a) v *= m.shrink;
   }
+  match_variance(m, band);
   return m;
 }
 

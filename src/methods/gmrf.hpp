@@ -39,7 +39,9 @@ double gmrf_spectrum(const GmrfModel& m, double w1, double w2);
 
 // Least squares over the pixels whose neighbourhood lies inside the band (no wrap), then the
 // a_s shrunk (shrink < 1) when the smallest mu on a 64 x 64 grid of frequencies falls below
-// kMinSpectrum. Asserts a one-channel field larger than the neighbourhood.
+// kMinSpectrum, then sigma^2 set so that the exact synthesis at the band's size has the
+// band's variance (moment matching). Asserts a one-channel field larger than the
+// neighbourhood.
 GmrfModel estimate_gmrf(const Field& band, const std::vector<Offset>& half);
 
 // The order in 1 .. max_order whose estimate leaves the smallest conditional variance by more

@@ -79,15 +79,15 @@ const std::vector<MethodInfo>& table() {
        "Filip, Haindl 2004", "--degree l (4) of the per-image polynomial, --iterations (30)",
        fit_plm_rf, read_plm_rf, plm_rf_ladder},
       {"3d-car", "3D CAR: BTF subspaces, a causal autoregressive model of RGB each, a range map",
-       "Haindl, Filip 2007", "--clusters c (subspaces, 15)", fit_car3d, read_car3d,
-       texture_model_ladder},
+       "Haindl, Filip 2007", "--clusters c (subspaces, 15), --levels K (pyramid, 3)", fit_car3d,
+       read_car3d, texture_model_ladder, FactorEncoding::kF16, FactorEncoding::kF16, true},
       {"2d-car",
        "2D CAR: BTF subspaces, a causal autoregressive model per colour band, a range map",
-       "Haindl, Filip 2007", "--clusters c (subspaces, 15)", fit_car2d, read_car2d,
-       texture_model_ladder},
+       "Haindl, Filip 2007", "--clusters c (subspaces, 15), --levels K (pyramid, 3)", fit_car2d,
+       read_car2d, texture_model_ladder, FactorEncoding::kF16, FactorEncoding::kF16, true},
       {"gmrf", "GMRF: BTF subspaces, a Gaussian Markov random field per colour band, a range map",
-       "Haindl, Filip 2007", "--clusters c (subspaces, 15)", fit_gmrf, read_gmrf,
-       texture_model_ladder},
+       "Haindl, Filip 2007", "--clusters c (subspaces, 15), --levels K (pyramid, 3)", fit_gmrf,
+       read_gmrf, texture_model_ladder, FactorEncoding::kF16, FactorEncoding::kF16, true},
   };
   return methods;
 }
@@ -105,6 +105,7 @@ std::vector<std::pair<std::string, std::string>> settings_record(const MethodInf
   add("clusters", s.clusters);
   add("degree", s.degree);
   add("iterations", std::size_t(std::max(s.iterations, 0)));
+  add("levels", std::size_t(std::max(s.levels, 0)));
   out.emplace_back("seed", std::to_string(s.seed));
   out.emplace_back("precision", std::string(to_string(s.encoding)));
   out.emplace_back("threads", std::to_string(s.threads > 0 ? s.threads : omp_get_max_threads()));

@@ -3,6 +3,7 @@
 #include "btfgmm/methods/texture_models.hpp"
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include <algorithm>
 #include <cmath>
@@ -11,6 +12,7 @@
 #include "btfgmm/core/limits.hpp"
 #include "methods/colour_texture.hpp"
 #include "methods/factors.hpp"
+#include "methods/pyramid.hpp"
 #include "model/conditional.hpp"
 
 namespace btfgmm {
@@ -59,13 +61,15 @@ float mean_lit(std::span<const float> normals, const Direction& light) {
 
 TextureModel::TextureModel(std::string_view method, ModelFrame frame,
                            std::vector<std::uint8_t> labels, std::vector<Subspace> subspaces,
-                           std::vector<float> heights, std::uint64_t seed)
+                           std::vector<float> heights, std::uint64_t seed,
+                           FactorEncoding range_encoding)
     : method_(method),
       frame_(std::move(frame)),
       labels_(std::move(labels)),
       subspaces_(std::move(subspaces)),
       heights_(std::move(heights)),
-      seed_(seed) {
+      seed_(seed),
+      range_encoding_(range_encoding) {
   normals_ = normals_of(heights_, frame_.width, frame_.height);
   for (const Direction& l : frame_.lights) mean_lit_.push_back(mean_lit(normals_, l));
   synthesise_tiles();
@@ -190,12 +194,25 @@ std::vector<std::uint8_t> TextureModel::payload() const {
   detail::ByteWriter w;
   detail::put_frame(w, frame_);
   w.put<std::uint64_t>(seed_);
-  w.put<std::uint8_t>(1);  // pyramid levels
+  w.put<std::uint8_t>(std::uint8_t(levels()));
   w.put<std::uint32_t>(std::uint32_t(subspaces_.size()));
   for (std::uint8_t l : labels_) w.put<std::uint8_t>(l);
-  detail::put_factors(w, heights_, heights_.size(), FactorEncoding::kF16);
+  detail::put_factors(w, heights_, heights_.size(), range_encoding_);
   for (const Subspace& s : subspaces_) s->put(w);
   return std::move(w.bytes);
+}
+
+int TextureModel::levels() const {
+  return subspaces_.empty() ? 1 : subspaces_[0]->levels();
+}
+
+std::string TextureModel::pyramid_text() const {
+  if (levels() == 1) return "1 (each subspace image modelled whole)";
+  std::vector<std::string> sides;
+  for (int k = 0; k < levels(); ++k)
+    sides.push_back(fmt::format("{} x {}", detail::level_side(frame_.width, k),
+                                detail::level_side(frame_.height, k)));
+  return fmt::format("{} (Gaussian-Laplacian, a model each: {})", levels(), fmt::join(sides, ", "));
 }
 
 std::vector<std::pair<std::string, std::string>> TextureModel::details() const {
@@ -205,12 +222,12 @@ std::vector<std::pair<std::string, std::string>> TextureModel::details() const {
   return {
       {"subspaces",
        fmt::format("{} (a label for each of the {} images)", subspaces_.size(), labels_.size())},
-      {"pyramid levels", "1 (each subspace image modelled whole)"},
+      {"pyramid levels", pyramid_text()},
       {"neighbourhood", subspaces_.empty() ? "" : subspaces_[0]->neighbourhood() + ", subspace 1"},
       {"values", fmt::format("{} labels + {} range map + {} model parameters", labels_.size(),
                              heights_.size(), models)},
-      {"range map", fmt::format("{} x {}, heights {:.2f} to {:.2f} pixels", frame_.width,
-                                frame_.height, *lo, *hi)},
+      {"range map", fmt::format("{} x {}, heights {:.2f} to {:.2f} pixels ({})", frame_.width,
+                                frame_.height, *lo, *hi, to_string(range_encoding_))},
       {"seed", std::to_string(seed_)},
   };
 }

@@ -2,6 +2,7 @@
 // range map, a texture model per subspace.
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <atomic>
 
 #include "btfgmm/core/error.hpp"
@@ -10,6 +11,7 @@
 #include "methods/car.hpp"
 #include "methods/colour_texture.hpp"
 #include "methods/factors.hpp"
+#include "methods/pyramid.hpp"
 #include "methods/subspaces.hpp"
 
 namespace btfgmm {
@@ -18,7 +20,8 @@ namespace {
 using detail::TextureKind;
 
 constexpr std::size_t kDefaultSubspaces = 15;
-constexpr int kMinTileSide = 8;
+constexpr int kMinTileSide = 8;    // of the tile, and of the pyramid's coarsest level
+constexpr int kDefaultLevels = 3;  // or as many as the tile holds, if fewer
 
 std::string_view method_name(TextureKind kind) {
   return kind == TextureKind::kCar3d ? "3d-car" : kind == TextureKind::kCar2d ? "2d-car" : "gmrf";
@@ -43,6 +46,20 @@ void check_settings(TextureKind kind, const Btf& tile, const MethodSettings& s) 
         fmt::format("{} needs a tile of at least {} x {} pixels to learn a texture; "
                     "this one is {} x {}: give a larger --tile",
                     method_name(kind), kMinTileSide, kMinTileSide, tile.width(), tile.height()));
+  const int most = detail::max_levels(tile.width(), tile.height(), kMinTileSide);
+  if (s.levels < 0 || s.levels > most)
+    throw Error(Error::Kind::kArgument,
+                fmt::format("--levels {}: a {} x {} tile holds at most {} pyramid level{} (the "
+                            "coarsest at least {} x {} pixels); give --levels 1 to {}, or a "
+                            "larger --tile",
+                            s.levels, tile.width(), tile.height(), most, most == 1 ? "" : "s",
+                            kMinTileSide, kMinTileSide, most));
+}
+
+// The pyramid's levels: as asked, or kDefaultLevels where the tile holds them.
+int pyramid_levels(const Btf& tile, const MethodSettings& s) {
+  if (s.levels > 0) return s.levels;
+  return std::min(kDefaultLevels, detail::max_levels(tile.width(), tile.height(), kMinTileSide));
 }
 
 detail::Field image_field(const Btf& tile, std::size_t image) {
@@ -64,8 +81,9 @@ std::vector<TextureModel::Subspace> fit_subspaces(TextureKind kind, const Btf& t
       stopped = true;
       continue;
     }
-    out[std::size_t(k)] = detail::fit_colour_texture(
-        kind, image_field(tile, sub.representatives[std::size_t(k)]), detail::kMaxCausalOrder);
+    out[std::size_t(k)] =
+        detail::fit_colour_texture(kind, image_field(tile, sub.representatives[std::size_t(k)]),
+                                   detail::kMaxCausalOrder, pyramid_levels(tile, s));
     const std::size_t n = ++done;
     if (s.progress) {
 #pragma omp critical(btfgmm_texture_progress)
@@ -85,19 +103,23 @@ std::unique_ptr<Representation> read_texture_model(TextureKind kind,
     r.fail(fmt::format("{} takes no flags, the file has {:#x}", method_name(kind), flags));
   ModelFrame frame = detail::get_frame(r);
   const auto seed = r.get<std::uint64_t>("seed");
-  if (const auto levels = r.get<std::uint8_t>("pyramid levels"); levels != 1)
-    r.fail(fmt::format("{} pyramid levels; this btfgmm reads 1", levels));
+  const int levels = r.get<std::uint8_t>("pyramid levels");
+  if (levels < 1 || levels > detail::max_levels(frame.width, frame.height, 1))
+    r.fail(fmt::format("{} pyramid levels for a {} x {} tile", levels, frame.width, frame.height));
   const std::size_t c = detail::get_count(r, 1, 255, "subspaces");
   std::vector<std::uint8_t> labels(frame.lights.size() * frame.views.size());
   for (std::uint8_t& l : labels)
     if ((l = r.get<std::uint8_t>("labels")) >= c)
       r.fail(fmt::format("label {} of {} subspaces", l, c));
+  const std::size_t at = r.pos();  // the range map's encoding, which get_factors checks
   std::vector<float> heights = detail::get_factors(r, 1, frame.pixels(), "range map");
+  const auto encoding = FactorEncoding(payload[at]);
   std::vector<TextureModel::Subspace> subspaces;
-  for (std::size_t k = 0; k < c; ++k) subspaces.push_back(detail::get_colour_texture(kind, r));
+  for (std::size_t k = 0; k < c; ++k)
+    subspaces.push_back(detail::get_colour_texture(kind, levels, r));
   if (r.remaining() != 0) r.fail(fmt::format("{} bytes follow the model", r.remaining()));
   return std::make_unique<TextureModel>(method_name(kind), std::move(frame), std::move(labels),
-                                        std::move(subspaces), std::move(heights), seed);
+                                        std::move(subspaces), std::move(heights), seed, encoding);
 }
 
 std::unique_ptr<Representation> fit_texture_model(TextureKind kind, const Btf& tile,
@@ -105,12 +127,12 @@ std::unique_ptr<Representation> fit_texture_model(TextureKind kind, const Btf& t
   check_settings(kind, tile, s);
   if (s.progress) s.progress(0.0, "range map");
   std::vector<float> heights = estimate_range_map(tile).heights;
-  detail::quantise_factors(heights, heights.size(), FactorEncoding::kF16);
+  detail::quantise_factors(heights, heights.size(), s.encoding);
   const detail::Subspaces sub =
       detail::cluster_images(tile, s.clusters ? s.clusters : kDefaultSubspaces, s.seed);
   std::vector<TextureModel::Subspace> models = fit_subspaces(kind, tile, sub, s);
   const TextureModel fitted(method_name(kind), ModelFrame::of(tile), sub.labels, std::move(models),
-                            std::move(heights), s.seed);
+                            std::move(heights), s.seed, s.encoding);
   // The model as its file holds it (parameters as 32-bit floats): memory and file agree.
   return read_texture_model(kind, fitted.payload(), 0, "the fitted model");
 }

@@ -26,6 +26,7 @@ struct FitOptions {
   std::string method = "gm";
   std::size_t components = 0, clusters = 0, degree = 0;
   int iterations = 0;
+  int levels = 0;                 // 3d-car, 2d-car, gmrf: Gaussian-Laplacian pyramid levels
   std::optional<double> epsilon;  // the mixture's EM only (default 0: all iterations)
   std::uint64_t seed = 1;
   int threads = 0;        // 0: OpenMP's default; the model does not depend on it
@@ -37,13 +38,13 @@ struct FitOptions {
 // The mixture's fit job from `input` to `output` (the tile, checkpoints and the stop flag are
 // the caller's to set): M = 600, 40 iterations, the prediction objective and the compact file
 // unless given. Throws Error(kArgument) for a precision other than compact (q8), f32 or f16, an
-// unknown objective, and for clusters or degree (other methods' sizes).
+// unknown objective, and for clusters, degree or levels (other methods' sizes).
 FitRequest mixture_fit_request(const FitOptions& o, const std::string& input,
                                const std::string& output);
 
 // Another method's settings: the sizes as given, the method's own storage unless a precision
-// is given. Throws Error(kArgument) for an epsilon (the mixture's EM alone has one) and a
-// precision that does not parse.
+// is given. Throws Error(kArgument) for an epsilon (the mixture's EM alone has one), levels
+// for a method without a pyramid, and a precision that does not parse.
 MethodSettings method_settings(const FitOptions& o, const MethodInfo& method);
 
 // What a fit tells as it goes (the library prints nothing); any member may be empty.

@@ -36,6 +36,8 @@ struct MethodInfo {
   // every file as small as its precision allows (docs/METHODS.md, "Storage").
   FactorEncoding fit_encoding = FactorEncoding::kQ8;
   FactorEncoding smallest_encoding = FactorEncoding::kQ8;
+  // Whether it models a Gaussian-Laplacian pyramid (takes `fit --levels`).
+  bool pyramid = false;
 };
 
 // Every method, the Gaussian mixture ("gm") first.

@@ -51,6 +51,7 @@ struct MethodSettings {
   std::size_t clusters = 0;    // lpca: k clusters
   std::size_t degree = 0;      // plm-rf: degree l of the per-image polynomial
   int iterations = 0;          // gm: EM; lpca: re-assignment rounds; plm-rf: LM steps
+  int levels = 0;              // 3d-car, 2d-car, gmrf: Gaussian-Laplacian pyramid levels
   std::uint64_t seed = 1;
   int threads = 0;                                 // 0: OpenMP's default
   FactorEncoding encoding = FactorEncoding::kF16;  // of the stored factors

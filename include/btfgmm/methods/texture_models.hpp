@@ -6,13 +6,15 @@
 //      and model each, a label per (light, view).
 //   2. The tile's range map (methods/range_map.hpp) is stored for its relief.
 //   3. Each representative is modelled (methods/colour_texture.hpp): 3D CAR on the RGB vector,
-//      or 2D CAR / GMRF on its Karhunen-Loeve bands; one pyramid level (the image itself).
+//      or 2D CAR / GMRF on its Karhunen-Loeve bands, on each level of its Gaussian-Laplacian
+//      pyramid (methods/pyramid.hpp; --levels K, default 3 or what the tile holds).
 //   4. Any (light, view): the subspace of the nearest measured light and view, synthesised
 //      from the seed, times the range map's bump shading 1 + kRelief (s - 1), s = max(0, n.l) /
 //      mean_xy max(0, n.l) (the mean taken under the nearest measured light).
 // Payload (after the model file's method tag): the frame (methods/factors.hpp), u64 seed,
-// u8 pyramid levels (1), u32 c, ni*nv u8 labels, the range map as factors (1 row of W*H f16
-// heights), then c subspace models (docs/FORMAT.md).
+// u8 pyramid levels K (1 in files written before the pyramid), u32 c, ni*nv u8 labels, the
+// range map as factors (1 row of W*H heights, f16 unless --precision says otherwise), then c
+// subspace models of K levels each (docs/FORMAT.md).
 #pragma once
 
 #include <cstdint>
@@ -40,7 +42,8 @@ class TextureModel final : public Representation {
   // `method`: "3d-car", "2d-car" or "gmrf"; `labels` (ni*nv, light-major) index
   // `subspaces`; `heights` W*H (the range map).
   TextureModel(std::string_view method, ModelFrame frame, std::vector<std::uint8_t> labels,
-               std::vector<Subspace> subspaces, std::vector<float> heights, std::uint64_t seed);
+               std::vector<Subspace> subspaces, std::vector<float> heights, std::uint64_t seed,
+               FactorEncoding range_encoding = FactorEncoding::kF16);
 
   std::string_view method() const override { return method_; }
   const ModelFrame& frame() const override { return frame_; }
@@ -55,14 +58,17 @@ class TextureModel final : public Representation {
 
   std::vector<std::uint8_t> payload() const override;
   std::vector<std::pair<std::string, std::string>> details() const override;
-  // The range map is stored as 16-bit floats (the models' few parameters as 32-bit floats).
-  FactorEncoding encoding() const override { return FactorEncoding::kF16; }
+  // How the range map is stored (fit --precision; f16 by default); the models' few parameters
+  // are 32-bit floats.
+  FactorEncoding encoding() const override { return range_encoding_; }
   bool synthesises() const override { return true; }
   void set_synthesis_seed(std::uint64_t seed, std::string_view option) override;
 
   std::uint64_t seed() const { return seed_; }
   std::span<const std::uint8_t> labels() const { return labels_; }
   std::span<const float> heights() const { return heights_; }
+  // The Gaussian-Laplacian pyramid's levels, a model each (every subspace alike).
+  int levels() const;
 
  private:
   std::size_t label_of(const Direction& light, const Direction& view) const;
@@ -73,6 +79,7 @@ class TextureModel final : public Representation {
   float shading(std::size_t pixel, const Direction& light) const;  // one pixel's
   // The subspaces' syntheses at the tile's size (what predict reads), made from seed_.
   void synthesise_tiles();
+  std::string pyramid_text() const;  // for details()
 
   std::string method_;
   ModelFrame frame_;
@@ -80,6 +87,7 @@ class TextureModel final : public Representation {
   std::vector<Subspace> subspaces_;
   std::vector<float> heights_, normals_, mean_lit_;
   std::uint64_t seed_;
+  FactorEncoding range_encoding_;
   std::vector<std::vector<float>> tiles_;
   // decode's syntheses at the last size asked, each made when first needed (decode is called
   // a light at a time by the command): guarded by cache_lock_.
@@ -93,9 +101,11 @@ class TextureModel final : public Representation {
   mutable Synthesised cache_;
 };
 
-// Fit each model to a tile: --clusters c (default 15). Throws Error(kArgument) for a tile
-// smaller than 8 x 8, fewer than 3 lights near the top for the range map, or a size setting
-// the models do not take (--components, --degree, --iterations).
+// Fit each model to a tile: --clusters c (default 15), --levels K (default 3, or as many as
+// the tile holds with the coarsest level at least 8 x 8), the range map stored as
+// s.encoding says. Throws Error(kArgument) for a tile smaller than 8 x 8, more levels than
+// the tile holds (naming the most), fewer than 3 lights near the top for the range map, or
+// a size setting the models do not take (--components, --degree, --iterations).
 std::unique_ptr<Representation> fit_car3d(const Btf& tile, const MethodSettings& s);
 std::unique_ptr<Representation> fit_car2d(const Btf& tile, const MethodSettings& s);
 std::unique_ptr<Representation> fit_gmrf(const Btf& tile, const MethodSettings& s);
