@@ -337,13 +337,13 @@ void run_fit_within_budget(const FitOptions& o) {
   if (o.given.count("--budget") && o.given.count("--ratio"))
     throw Error(Error::Kind::kArgument,
                 "--budget and --ratio both set the budget; give one of them");
-  refuse_options(
-      o,
-      {"--method", "--components", "--clusters", "--degree", "--precision", "--objective",
-       "--epsilon", "--checkpoint", "--checkpoint-every", "--resume", "--continue", "--log"},
-      fmt::format("with {}: it chooses the method and size itself (each method's "
-                  "ladder of sizes, stored as sweep stores them)",
-                  budget));
+  refuse_options(o,
+                 {"--method", "--components", "--clusters", "--degree", "--precision",
+                  "--objective", "--epsilon", "--levels", "--checkpoint", "--checkpoint-every",
+                  "--resume", "--continue", "--log"},
+                 fmt::format("with {}: it chooses the method and size itself (each method's "
+                             "ladder of sizes, stored as sweep stores them)",
+                             budget));
   if (const auto processes = job_processes(); processes && processes->size() > 1)
     throw Error(Error::Kind::kArgument,
                 fmt::format("fit {} runs in one process; start it without mpirun", budget));

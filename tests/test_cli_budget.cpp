@@ -100,6 +100,9 @@ TEST(BudgetCli, ChoosesTheBestCandidateThatFits) {
   r = run("fit " + d + "/btf --ratio 4 -M 3 -o " + d + "/c.btfgmm");
   EXPECT_EQ(r.status, 1);
   EXPECT_NE(r.err.find("-M/--components cannot apply with --ratio"), std::string::npos) << r.err;
+  r = run("fit " + d + "/btf --budget 5000 --levels 2 -o " + d + "/c.btfgmm");
+  EXPECT_EQ(r.status, 1);
+  EXPECT_NE(r.err.find("--levels cannot apply with --budget"), std::string::npos) << r.err;
   r = run("fit " + d + "/btf --ratio 4 --budget 100 -o " + d + "/c.btfgmm");
   EXPECT_EQ(r.status, 1);
   EXPECT_NE(r.err.find("--budget and --ratio"), std::string::npos) << r.err;
