@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cmath>
 #include <filesystem>
 #include <functional>
 #include <memory>
@@ -135,6 +136,35 @@ TEST(TextureMethods, SettingsTheyDoNotTakeAreRefused) {
   const Btf small = generate(g);
   EXPECT_NE(error_of([&] { find_method("3d-car").fit(small, {}); }).find("at least 8 x 8"),
             std::string::npos);
+}
+
+// A synthesis larger than the tile stays bounded: the estimate of a coarse level, tested for
+// stability on its few pixels alone, once grew along the raster order of a 256 x 256 synthesis
+// into a saturated checkerboard (standard deviation 127.5 levels against the data's 26).
+TEST(TextureMethods, ASynthesisLargerThanTheTileKeepsTheDatasVariance) {
+  GenerateConfig g;
+  g.material = "knit";
+  g.size = 32;
+  g.seed = 1;
+  g.lights = DirectionSet::parse("spiral:9");
+  g.views = DirectionSet::parse("spiral:4");
+  const Btf data = generate(g);
+  MethodSettings s;
+  s.clusters = 3;
+  s.levels = 2;
+  const auto model = find_method("2d-car").fit(data, s);
+  const auto deviation = [](std::span<const float> v) {
+    double m = 0, q = 0;
+    for (float x : v) m += x;
+    m /= double(v.size());
+    for (float x : v) q += (x - m) * (x - m);
+    return std::sqrt(q / double(v.size()));
+  };
+  const DirectionSet light({Direction{30, 0}}), view({Direction{0, 0}});
+  const Btf big = model->decode(light, view, 256, 256, 0);
+  const double tile = deviation(data.data()), synthesis = deviation(big.data());
+  EXPECT_LT(synthesis, 1.5 * tile) << "data " << tile;
+  EXPECT_GT(synthesis, 0.5 * tile) << "data " << tile;
 }
 
 // --levels: a model per level of the pyramid, as many levels as the tile holds (16 x 16: 2,

@@ -195,10 +195,16 @@ Field synthesise_car(const CarModel& m, int width, int height, std::uint64_t see
   return y;
 }
 
+constexpr int kStabilitySide = 128;
+
 double stabilise_car(CarModel& m, double data_trace, int width, int height) {
+  // Tested on a field of at least kStabilitySide pixels a side: an estimate past its unit root
+  // grows along the raster order, slowly enough on a coarse level's few pixels to pass there
+  // and blow up in a synthesis of a larger size.
+  const int w = std::max(width, kStabilitySide), h = std::max(height, kStabilitySide);
   double factor = 1.0;
   for (int attempt = 0; attempt < 60; ++attempt) {
-    const Field f = synthesise_car(m, width, height, 1);
+    const Field f = synthesise_car(m, w, h, 1);
     const std::vector<double> mean = channel_means(f);
     double trace = 0.0;
     for (std::size_t i = 0; i < f.values.size(); ++i) {
