@@ -32,7 +32,8 @@ struct SampleWeights {
 
 class GridWeights {
  public:
-  // `stride`: only the (light, view) pairs whose index l nv + v it divides.
+  // `stride`: only the samples of pixel p and (light, view) pair l nv + v whose sum p + l nv + v
+  // it divides (kept()).
   GridWeights(const SampleSet& s, const ProductMixture& mix, std::size_t stride = 1)
       : s_(s), m_(mix.size()), stride_(stride) {
     const Periods periods = variable_periods({double(s.width), double(s.height)});
@@ -56,10 +57,19 @@ class GridWeights {
     }
   }
 
-  // The samples for_each_sample visits.
+  // The samples visit_pixel visits, over every pixel.
   std::size_t samples() const {
-    return s_.pixels() * ((s_.lights * s_.views + stride_ - 1) / stride_);
+    std::size_t n = 0;
+    const std::size_t first = s_.first_light * s_.views, end = s_.light_end() * s_.views;
+    for (std::size_t p = 0; p < s_.pixels(); ++p)
+      for (std::size_t j = first; j < end; ++j) n += kept(p, j) ? 1 : 0;
+    return n;
   }
+
+  // Whether sample (pixel p, (light, view) pair j = l nv + v) is in the stride's subsample:
+  // (p + j) divisible by the stride, so every image keeps every stride-th pixel, and every
+  // pixel every stride-th image.
+  bool kept(std::size_t p, std::size_t j) const { return (p + j) % stride_ == 0; }
 
   // Per-thread working space of visit_pixel.
   struct Scratch {
@@ -81,7 +91,7 @@ class GridWeights {
       const double* b = &light_[l * m_];
       for (std::size_t k = 0; k < m_; ++k) sc.pl[k] = a[k] + b[k];
       for (std::size_t v = 0; v < s_.views; ++v) {
-        if ((l * s_.views + v) % stride_ != 0) continue;
+        if (!kept(p, l * s_.views + v)) continue;
         weights(sc.pl.data(), &view_[v * m_], sc.t.data(), w);
         w.pixel = p;
         w.light = l;

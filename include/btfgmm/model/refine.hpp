@@ -37,8 +37,9 @@ struct ColourNormalEquations {
   std::array<double, 3> energy{0, 0, 0};  // e_c
   std::size_t samples = 0;
 };
-// `stride` > 1: only the samples of every stride-th (light, view) pair (l nv + v divisible
-// by it) enter the sums, a systematic subsample of the images for large sample sets.
+// `stride` > 1: only the samples of pixel p and (light, view) pair l nv + v with p + l nv + v
+// divisible by it enter the sums, a systematic subsample for large sample sets that keeps
+// every stride-th pixel of every image.
 ColourNormalEquations colour_normal_equations(const SampleSet& samples, const ProductMixture& mix,
                                               int threads = 0, std::size_t stride = 1);
 
@@ -85,8 +86,8 @@ PredictionGradient prediction_gradient(const SampleSet& samples, const ProductMi
 // units, s_mn; `colour_rate` levels for the colour means), times a factor that starts at 0.1,
 // grows by 1.2 after a step that lowered E and halves after one that raised it (that step
 // undone), then the colour means refitted in closed form. rounds 0: the colour refit alone.
-// The passes take a systematic subsample of about `samples` samples (every stride-th (light,
-// view) pair, as colour_normal_equations), the refits their own (refine_for_prediction).
+// The passes take a systematic subsample of about `samples` samples (a stride as
+// colour_normal_equations takes it), the refits their own (refine_for_prediction).
 struct GradientConfig {
   int rounds = 1;
   int steps = 120;
