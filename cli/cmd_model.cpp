@@ -483,8 +483,9 @@ void register_fit(CLI::App& app, Commands& commands) {
       ->capture_default_str();
   f->add_option("--seed", fit->seed, "Seed of the random initialisation")->capture_default_str();
   f->add_option("--objective", fit->objective,
-                "gm: prediction (default: EM, then the colour means refitted by least squares "
-                "for the prediction's error, Eq. 8-11) or likelihood (the paper's EM alone, "
+                "gm: prediction (default: EM, then the mixture refined for the prediction's "
+                "error, Eq. 8-11: the colour means by least squares, gradient steps on every "
+                "parameter, the colour means again) or likelihood (the paper's EM alone, "
                 "exactly)");
   f->add_option("--threads", fit->threads,
                 "Threads (0: all cores; the model does not depend "

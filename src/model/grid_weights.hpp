@@ -7,6 +7,7 @@
 
 #include <omp.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <vector>
@@ -31,7 +32,8 @@ struct SampleWeights {
 
 class GridWeights {
  public:
-  // `stride`: only the (light, view) pairs whose index l nv + v it divides.
+  // `stride`: only the samples of pixel p and (light, view) pair l nv + v whose sum p + l nv + v
+  // it divides (kept()).
   GridWeights(const SampleSet& s, const ProductMixture& mix, std::size_t stride = 1)
       : s_(s), m_(mix.size()), stride_(stride) {
     const Periods periods = variable_periods({double(s.width), double(s.height)});
@@ -55,37 +57,77 @@ class GridWeights {
     }
   }
 
-  // The samples for_each_sample visits.
+  // The samples visit_pixel visits, over every pixel.
   std::size_t samples() const {
-    return s_.pixels() * ((s_.lights * s_.views + stride_ - 1) / stride_);
+    std::size_t n = 0;
+    const std::size_t first = s_.first_light * s_.views, end = s_.light_end() * s_.views;
+    for (std::size_t p = 0; p < s_.pixels(); ++p)
+      for (std::size_t j = first; j < end; ++j) n += kept(p, j) ? 1 : 0;
+    return n;
   }
 
-  // Calls visit(const SampleWeights&) for every sample (of the stride); inside an OpenMP parallel
-  // region the pixels are shared out among its threads (each thread sees whole pixels).
-  template <class Visit>
-  void for_each_sample(Visit&& visit) const {
-    std::vector<double> pl(m_), t(m_);
+  // Whether sample (pixel p, (light, view) pair j = l nv + v) is in the stride's subsample:
+  // (p + j) divisible by the stride, so every image keeps every stride-th pixel, and every
+  // pixel every stride-th image.
+  bool kept(std::size_t p, std::size_t j) const { return (p + j) % stride_ == 0; }
+
+  // Per-thread working space of visit_pixel.
+  struct Scratch {
+    std::vector<double> pl, t;
     SampleWeights w;
-    w.component.reserve(m_);
-    w.weight.reserve(m_);
-    const std::ptrdiff_t pixels = std::ptrdiff_t(s_.pixels());
-#pragma omp for schedule(dynamic, 1)
-    for (std::ptrdiff_t pp = 0; pp < pixels; ++pp) {
-      const std::size_t p = std::size_t(pp);
-      for (std::size_t l = s_.first_light; l < s_.light_end(); ++l) {  // the lights held
-        const double* a = &pixel_[p * m_];
-        const double* b = &light_[l * m_];
-        for (std::size_t k = 0; k < m_; ++k) pl[k] = a[k] + b[k];
-        for (std::size_t v = 0; v < s_.views; ++v) {
-          if ((l * s_.views + v) % stride_ != 0) continue;
-          weights(pl.data(), &view_[v * m_], t.data(), w);
-          w.pixel = p;
-          w.light = l;
-          w.view = v;
-          w.index = s_.index(p, l, v);
-          for (int c = 0; c < 3; ++c) w.residual[c] = s_.residual_of(p, l, v, c);
-          visit(w);
-        }
+    explicit Scratch(std::size_t m) : pl(m), t(m) {
+      w.component.reserve(m);
+      w.weight.reserve(m);
+    }
+  };
+
+  // Calls visit(const SampleWeights&) for every sample (of the stride) of pixel p, lights
+  // then views in increasing order.
+  template <class Visit>
+  void visit_pixel(std::size_t p, Scratch& sc, Visit&& visit) const {
+    SampleWeights& w = sc.w;
+    for (std::size_t l = s_.first_light; l < s_.light_end(); ++l) {  // the lights held
+      const double* a = &pixel_[p * m_];
+      const double* b = &light_[l * m_];
+      for (std::size_t k = 0; k < m_; ++k) sc.pl[k] = a[k] + b[k];
+      for (std::size_t v = 0; v < s_.views; ++v) {
+        if (!kept(p, l * s_.views + v)) continue;
+        weights(sc.pl.data(), &view_[v * m_], sc.t.data(), w);
+        w.pixel = p;
+        w.light = l;
+        w.view = v;
+        w.index = s_.index(p, l, v);
+        for (int c = 0; c < 3; ++c) w.residual[c] = s_.residual_of(p, l, v, c);
+        visit(w);
+      }
+    }
+  }
+
+  // Pixels a chunk of reduce_in_chunks holds: the chunks, and so the order of every sum, are
+  // the same for any number of threads.
+  static constexpr std::size_t kChunkPixels = 8;
+
+  // Sums over every sample (of the stride) with `threads` threads (0: all cores), the same
+  // bit for bit with any number of them: the pixels in fixed chunks of kChunkPixels, each
+  // thread with its own accumulator acc = make(); visit(const SampleWeights&, acc) for every
+  // sample of a chunk, then reduce(acc) for that chunk, in chunk order and one thread at a
+  // time (reduce adds acc into the totals and clears it).
+  template <class Make, class Visit, class Reduce>
+  void reduce_in_chunks(int threads, Make&& make, Visit&& visit, Reduce&& reduce) const {
+    const std::size_t pixels = s_.pixels();
+    const std::ptrdiff_t chunks = std::ptrdiff_t((pixels + kChunkPixels - 1) / kChunkPixels);
+    const int n_threads = threads > 0 ? threads : omp_get_max_threads();
+#pragma omp parallel num_threads(n_threads)
+    {
+      auto acc = make();
+      Scratch sc(m_);
+#pragma omp for ordered schedule(dynamic, 1)
+      for (std::ptrdiff_t c = 0; c < chunks; ++c) {
+        const std::size_t end = std::min(pixels, std::size_t(c + 1) * kChunkPixels);
+        for (std::size_t p = std::size_t(c) * kChunkPixels; p < end; ++p)
+          visit_pixel(p, sc, [&](const SampleWeights& w) { visit(w, acc); });
+#pragma omp ordered
+        reduce(acc);
       }
     }
   }

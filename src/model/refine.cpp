@@ -4,7 +4,6 @@
 #include "btfgmm/model/refine.hpp"
 
 #include <fmt/format.h>
-#include <omp.h>
 
 #include <algorithm>
 #include <cmath>
@@ -12,6 +11,7 @@
 #include "btfgmm/core/error.hpp"
 #include "core/eigen_dense.hpp"
 #include "model/grid_weights.hpp"
+#include "model/refine_internal.hpp"
 
 namespace btfgmm {
 
@@ -36,9 +36,10 @@ FitObjective recorded_objective(const Provenance& p) {
 
 namespace {
 
-// One thread's share of the normal equations, in batches of kBatch samples: their weights as
-// the rows of a dense matrix B, then G += B^T B and b += B^T r (BLAS-3 products: at M = 600 a
-// sample's weights are mostly above e^-25, so G gains most of its M^2 / 2 terms per sample).
+// One thread's share of the normal equations (one chunk of pixels at a time), in batches of kBatch
+// samples: their weights as the rows of a dense matrix B, then G += B^T B and b += B^T r (BLAS-3
+// products: at M = 600 a sample's weights are mostly above e^-25, so G gains most of its M^2 / 2
+// terms per sample).
 constexpr Eigen::Index kBatch = 256;
 struct Accumulator {
   Eigen::MatrixXd gram, rhs, batch, colour;
@@ -66,6 +67,11 @@ struct Accumulator {
     batch.topRows(rows).setZero();
     rows = 0;
   }
+  void clear() {
+    gram.setZero();
+    rhs.setZero();
+    energy = {0, 0, 0};
+  }
 };
 
 }  // namespace
@@ -79,22 +85,19 @@ ColourNormalEquations colour_normal_equations(const SampleSet& samples, const Pr
   eq.rhs.assign(m * 3, 0.0);
   const detail::GridWeights grid(samples, mix, std::max<std::size_t>(stride, 1));
   eq.samples = grid.samples();
-  const int n_threads = threads > 0 ? threads : omp_get_max_threads();
-#pragma omp parallel num_threads(n_threads)
-  {
-    Accumulator acc(m);
-    grid.for_each_sample([&](const detail::SampleWeights& s) { acc.add(s); });
-    acc.flush();
-#pragma omp critical
-    {
-      for (std::size_t a = 0; a < m; ++a) {
-        for (std::size_t b = a; b < m; ++b)
-          eq.gram[a * m + b] += acc.gram(Eigen::Index(a), Eigen::Index(b));
-        for (int c = 0; c < 3; ++c) eq.rhs[a * 3 + std::size_t(c)] += acc.rhs(Eigen::Index(a), c);
-      }
-      for (int c = 0; c < 3; ++c) eq.energy[std::size_t(c)] += acc.energy[std::size_t(c)];
-    }
-  }
+  grid.reduce_in_chunks(
+      threads, [m] { return Accumulator(m); },
+      [](const detail::SampleWeights& s, Accumulator& acc) { acc.add(s); },
+      [&eq, m](Accumulator& acc) {
+        acc.flush();
+        for (std::size_t a = 0; a < m; ++a) {
+          for (std::size_t b = a; b < m; ++b)
+            eq.gram[a * m + b] += acc.gram(Eigen::Index(a), Eigen::Index(b));
+          for (int c = 0; c < 3; ++c) eq.rhs[a * 3 + std::size_t(c)] += acc.rhs(Eigen::Index(a), c);
+        }
+        for (int c = 0; c < 3; ++c) eq.energy[std::size_t(c)] += acc.energy[std::size_t(c)];
+        acc.clear();
+      });
   for (std::size_t a = 0; a < m; ++a)  // the lower triangle from the upper
     for (std::size_t b = a + 1; b < m; ++b) eq.gram[b * m + a] = eq.gram[a * m + b];
   return eq;
@@ -155,7 +158,7 @@ constexpr std::size_t kRefitSamples = 250000;
 }  // namespace
 
 PredictionRefinement refine_for_prediction(const SampleSet& samples, ProductMixture& mix,
-                                           int threads) {
+                                           int threads, const GradientConfig& gradient) {
   PredictionRefinement out;
   // A systematic subsample of about kRefitSamples samples: the problem has 3 M unknowns, and
   // the sums over every image of a large tile would cost more than EM's iterations.
@@ -165,6 +168,8 @@ PredictionRefinement refine_for_prediction(const SampleSet& samples, ProductMixt
   const ColourRefit colour = refit_colour_means(eq, mix);
   out.error_em = colour.error_before;
   out.error_colour = colour.error_after;
+  out.error_final = detail::gradient_rounds(samples, mix, threads, stride, gradient,
+                                            colour.error_after, out.passes);
   return out;
 }
 

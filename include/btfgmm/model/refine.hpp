@@ -37,8 +37,9 @@ struct ColourNormalEquations {
   std::array<double, 3> energy{0, 0, 0};  // e_c
   std::size_t samples = 0;
 };
-// `stride` > 1: only the samples of every stride-th (light, view) pair (l nv + v divisible
-// by it) enter the sums, a systematic subsample of the images for large sample sets.
+// `stride` > 1: only the samples of pixel p and (light, view) pair l nv + v with p + l nv + v
+// divisible by it enter the sums, a systematic subsample for large sample sets that keeps
+// every stride-th pixel of every image.
 ColourNormalEquations colour_normal_equations(const SampleSet& samples, const ProductMixture& mix,
                                               int threads = 0, std::size_t stride = 1);
 
@@ -59,18 +60,58 @@ struct ColourRefit {
 ColourRefit refit_colour_means(const ColourNormalEquations& eq, ProductMixture& mix,
                                double ridge = 1e-6);
 
+// The prediction's squared error E = sum_i sum_c (r_ic - sum_m W_m(x_I,i) mu_m,6+c)^2 (Eq. 8-11,
+// model units, over the samples of a stride as colour_normal_equations takes them) and its
+// gradient with respect to every parameter the prediction depends on. W_m is the softmax of
+// t_m = a_m - 1/2 sum_n s_mn - sum_n d_mn^2 / (2 exp(s_mn)) (Eq. 9-10), a_m = log w_m,
+// s_mn = log sigma^2_mn, d_mn = x_n - mu_mn (its minimum image for x and y), so with
+// g_im = dE/dt_m = -2 W_im sum_c (r_ic - yhat_ic)(mu_m,6+c - yhat_ic):
+//   dE/da_m = sum_i g_im,  dE/dmu_mn = sum_i g_im d_imn / sigma^2_mn,
+//   dE/ds_mn = sum_i g_im (d_imn^2 / sigma^2_mn - 1) / 2,
+//   dE/dmu_m,6+c = -2 sum_i W_im (r_ic - yhat_ic).
+// The sums are taken per pixel, light and view (the exponent's three parts) and reduced in a
+// fixed order: the same bit for bit with any number of threads.
+struct PredictionGradient {
+  double error = 0.0;
+  std::vector<double> log_weight;                    // dE/da_m
+  std::vector<std::array<double, kVariables>> mean;  // dE/dmu_mn, n = 0..8
+  std::vector<std::array<double, kInputs>> log_var;  // dE/ds_mn, n = 0..5
+  std::size_t samples = 0;
+};
+PredictionGradient prediction_gradient(const SampleSet& samples, const ProductMixture& mix,
+                                       int threads = 0, std::size_t stride = 1);
+
+// The gradient passes of refine_for_prediction: `rounds` times, `steps` Adam steps on all
+// parameters (the rate `rate` in each parameter's own unit: a_m, the input means in their
+// units, s_mn; `colour_rate` levels for the colour means), times a factor that starts at 0.1,
+// grows by 1.2 after a step that lowered E and halves after one that raised it (that step
+// undone), then the colour means refitted in closed form. rounds 0: the colour refit alone.
+// The passes take a systematic subsample of about `samples` samples (a stride as
+// colour_normal_equations takes it), the refits their own (refine_for_prediction).
+struct GradientConfig {
+  int rounds = 1;
+  int steps = 120;
+  double rate = 0.01;
+  double colour_rate = 1.0;
+  std::size_t samples = 40000;
+};
+
 // What refine_for_prediction did: the prediction's squared error (model units squared, all
 // samples and channels) after EM and after each stage.
 struct PredictionRefinement {
   double error_em = 0.0;      // EM's mixture
   double error_colour = 0.0;  // after the colour means' refit
+  double error_final = 0.0;   // after the gradient passes and the last colour refit
+  int passes = 0;             // gradient passes (each one over the samples)
   std::size_t samples = 0;
 };
 
 // The mixture EM fitted, refined for the prediction's error (docs/ALGORITHM.md, "Fitting for
-// the prediction"): the colour means refitted by least squares (refit_colour_means).
-// `threads` 0: all cores.
+// the prediction"): the colour means refitted by least squares (refit_colour_means), then
+// the gradient passes of `gradient` (all parameters, Adam), each round closed by a colour
+// refit; the result with the lowest error is kept, so it is never above the first refit's.
+// `threads` 0: all cores; the result is the same for any number of threads.
 PredictionRefinement refine_for_prediction(const SampleSet& samples, ProductMixture& mix,
-                                           int threads = 0);
+                                           int threads = 0, const GradientConfig& gradient = {});
 
 }  // namespace btfgmm

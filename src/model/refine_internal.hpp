@@ -1,0 +1,18 @@
+// The gradient rounds of the fit for the prediction (refine_gradient.cpp), called by
+// refine_for_prediction (refine.cpp).
+#pragma once
+
+#include <cstddef>
+
+#include "btfgmm/model/refine.hpp"
+
+namespace btfgmm::detail {
+
+// From a mixture whose colour means were just refitted (prediction error `error` on the
+// samples of `stride`): config.rounds rounds of Adam steps on every parameter, each closed by
+// the colour refit and kept only where it lowers the error. Returns the lowest error reached,
+// its mixture in `mix`; adds the gradient passes made to `passes`.
+double gradient_rounds(const SampleSet& samples, ProductMixture& mix, int threads,
+                       std::size_t stride, const GradientConfig& config, double error, int& passes);
+
+}  // namespace btfgmm::detail
