@@ -144,6 +144,18 @@ def test_fit_of_another_method_equals_the_command(work, tmp_path):
     assert model.method == "pca-btf" and model.parameters == btfgmm.load(work["pca"]).parameters
 
 
+def test_fit_takes_the_objective_and_the_pyramid_levels(work, tmp_path):
+    paper = btfgmm.fit(work["btf"], tile=(0, 0, 6, 6), components=5, iterations=3, seed=2,
+                       objective="likelihood")
+    assert paper.provenance["settings"]["objective"] == "likelihood"
+    with pytest.raises(btfgmm.Error, match="objective"):
+        btfgmm.fit(work["btf"], tile=(0, 0, 6, 6), components=5, objective="likelyhood")
+    car = btfgmm.fit(work["btf"], method="3d-car", clusters=2, levels=1)
+    assert car.provenance["settings"]["levels"] == "1"
+    with pytest.raises(btfgmm.Error, match="--levels 3"):
+        btfgmm.fit(work["btf"], method="3d-car", clusters=2, levels=3)
+
+
 def test_compare_equals_the_command_json(work):
     for which in ("gm", "pca"):
         got = btfgmm.compare(work["btf"], btfgmm.load(work[which]))
