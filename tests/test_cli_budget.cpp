@@ -4,10 +4,11 @@
 #include <gtest/gtest.h>
 
 #include <unistd.h>
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <nlohmann/json.hpp>
-#include <regex>
+#include <optional>
 #include <sstream>
 #include <string>
 
@@ -28,16 +29,45 @@ struct Row {
   std::string psnr;  // as printed, 2 decimals
 };
 
+bool all_digits(const std::string& t) {
+  return !t.empty() && std::all_of(t.begin(), t.end(), [](char c) { return c >= '0' && c <= '9'; });
+}
+
+// "123.45": digits, a point, two digits.
+bool two_decimals(const std::string& t) {
+  const auto dot = t.find('.');
+  return dot != std::string::npos && all_digits(t.substr(0, dot)) && t.size() == dot + 3 &&
+         all_digits(t.substr(dot + 1));
+}
+
+// One row of the candidates' table fit --budget prints on stderr: method, size (words),
+// file bytes, PSNR with two decimals, then "chosen", "over the budget" or nothing.
+std::optional<Row> candidate_row(std::string line) {
+  Row r;
+  for (const char* mark : {"chosen", "over the budget"}) {
+    const std::string m = mark;
+    if (line.size() > m.size() && line.ends_with(m)) {
+      r.mark = m;
+      line.resize(line.size() - m.size());
+    }
+  }
+  std::istringstream words(line);
+  std::vector<std::string> w;
+  for (std::string t; words >> t;) w.push_back(t);
+  if (w.size() < 4 || !two_decimals(w.back()) || !all_digits(w[w.size() - 2])) return std::nullopt;
+  r.method = w.front();
+  r.psnr = w.back();
+  r.bytes = std::stoull(w[w.size() - 2]);
+  for (std::size_t k = 1; k + 2 < w.size(); ++k) r.size += (k > 1 ? " " : "") + w[k];
+  return r;
+}
+
 // The candidates' table fit --budget prints on stderr.
 std::vector<Row> candidates(const std::string& err) {
-  static const std::regex row(
-      R"(^(\S+)\s+(.+?)\s+(\d+)\s+(\d+\.\d\d)\s*(chosen|over the budget)?\s*$)");
   std::vector<Row> out;
   std::istringstream in(err);
-  std::string line;
-  std::smatch m;
-  while (std::getline(in, line))
-    if (std::regex_match(line, m, row)) out.push_back({m[1], m[2], m[5], std::stoull(m[3]), m[4]});
+  for (std::string line; std::getline(in, line);)
+    if (const auto r = candidate_row(line)) out.push_back(*r);
   return out;
 }
 
