@@ -81,14 +81,20 @@ TEST(RefineGradient, AgreesWithFiniteDifferences) {
   std::printf("largest difference: %.2e relative\n", worst);
 }
 
+// EM's mixture of 12 components (seed 3) after `iterations` iterations: the start of a refit.
+ProductMixture em_mixture(const SampleSet& s, int iterations) {
+  ProductMixture em = initial_mixture(s, 12, 3);
+  EmConfig config;
+  config.max_iterations = iterations;
+  fit_em(s, em, config);
+  return em;
+}
+
 // The gradient passes lower the prediction's error below the colour refit's and never raise
 // it, in every round; rounds 0 is the colour refit alone.
 TEST(RefineGradient, NeverIncreasesThePredictionError) {
   const SampleSet s = knit_samples(8);
-  ProductMixture em = initial_mixture(s, 12, 3);
-  EmConfig config;
-  config.max_iterations = 8;
-  fit_em(s, em, config);
+  const ProductMixture em = em_mixture(s, 8);
   ProductMixture colour_only = em;
   const PredictionRefinement c = refine_for_prediction(s, colour_only, 2, GradientConfig{0});
   EXPECT_EQ(c.passes, 0);
@@ -116,10 +122,7 @@ TEST(RefineGradient, NeverIncreasesThePredictionError) {
 // with one thread and with two.
 TEST(RefineGradient, SameModelWithAnyNumberOfThreads) {
   const SampleSet s = knit_samples(8);
-  ProductMixture em = initial_mixture(s, 12, 3);
-  EmConfig config;
-  config.max_iterations = 5;
-  fit_em(s, em, config);
+  const ProductMixture em = em_mixture(s, 5);
   ProductMixture one = em, two = em;
   refine_for_prediction(s, one, 1);
   refine_for_prediction(s, two, 2);
