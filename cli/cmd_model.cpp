@@ -188,6 +188,17 @@ double memory_in_use() {
   return resident * double(sysconf(_SC_PAGESIZE));
 }
 
+// The fit for the prediction's gradient steps: the first, every tenth of them and the last,
+// with the RMSE (levels) on the steps' subsample and the time left.
+void print_refinement(const btfgmm::GradientProgress& p, Clock::time_point since) {
+  const int every = std::max(1, (p.steps + 9) / 10);
+  if (p.step % every != 0 && p.step != p.steps) return;
+  const double seconds = seconds_since(since);
+  const double left = p.step > 0 ? seconds / p.step * (p.steps - p.step) : 0.0;
+  fmt::print(stderr, "refining for the prediction: step {:>4}/{}  RMSE {:.2f} levels  {}  ETA {}\n",
+             p.step, p.steps, p.rmse, human_seconds(seconds), human_seconds(left));
+}
+
 // One EM iteration; the time left is estimated from this run's iterations. The first
 // iteration of a fit has no gain.
 void print_iteration(const btfgmm::EmProgress& p, const RunStart& start) {
@@ -316,6 +327,12 @@ void run_mixture_fit(const FitOptions& options,
   observer.iteration = [&](const btfgmm::EmProgress& p) {
     if (!o.quiet) print_iteration(p, start);
     if (log) log->add({p.log_likelihood, p.seconds, std::uint32_t(p.components)});
+  };
+  std::optional<Clock::time_point> refinement_start;
+  observer.refinement = [&](const btfgmm::GradientProgress& p) {
+    if (o.quiet) return;
+    if (!refinement_start) refinement_start = Clock::now();
+    print_refinement(p, *refinement_start);
   };
   const btfgmm::FitOutcome fit = btfgmm::run_fit(r, observer);
   stop_on_signals.reset();

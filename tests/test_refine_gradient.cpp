@@ -81,6 +81,40 @@ TEST(RefineGradient, AgreesWithFiniteDifferences) {
   std::printf("largest difference: %.2e relative\n", worst);
 }
 
+// The float pass the Adam steps take agrees with the double pass above: the error to 1e-6
+// relative, every derivative within 1e-4 of the gradient's largest of its kind, over a
+// subsample (a stride, as the steps take it) and over all samples.
+TEST(RefineGradient, FloatPassAgreesWithTheDoublePass) {
+  const SampleSet s = knit_samples(8);
+  const ProductMixture mix = em_mixture(s, std::size_t(12));
+  for (std::size_t stride : {std::size_t(1), std::size_t(7)}) {
+    const PredictionGradient d = prediction_gradient(s, mix, 2, stride, PassPrecision::kDouble);
+    const PredictionGradient f = prediction_gradient(s, mix, 1, stride, PassPrecision::kFloat);
+    EXPECT_EQ(f.samples, d.samples);
+    EXPECT_LT(d.samples, s.size() / stride + 2);
+    EXPECT_NEAR(f.error, d.error, 1e-6 * d.error);
+    double top[3] = {0, 0, 0}, worst[3] = {0, 0, 0};  // a, mu, s
+    for (std::size_t k = 0; k < mix.size(); ++k) {
+      top[0] = std::max(top[0], std::abs(d.log_weight[k]));
+      for (double g : d.mean[k]) top[1] = std::max(top[1], std::abs(g));
+      for (double g : d.log_var[k]) top[2] = std::max(top[2], std::abs(g));
+    }
+    for (std::size_t k = 0; k < mix.size(); ++k) {
+      worst[0] = std::max(worst[0], std::abs(f.log_weight[k] - d.log_weight[k]) / top[0]);
+      for (int n = 0; n < kVariables; ++n)
+        worst[1] = std::max(
+            worst[1], std::abs(f.mean[k][std::size_t(n)] - d.mean[k][std::size_t(n)]) / top[1]);
+      for (int n = 0; n < kInputs; ++n)
+        worst[2] = std::max(
+            worst[2],
+            std::abs(f.log_var[k][std::size_t(n)] - d.log_var[k][std::size_t(n)]) / top[2]);
+    }
+    for (double w : worst) EXPECT_LT(w, 1e-4) << "stride " << stride;
+    std::printf("stride %zu: float against double %.1e %.1e %.1e (a, mu, s)\n", stride, worst[0],
+                worst[1], worst[2]);
+  }
+}
+
 // EM's mixture of 12 components (seed 3) after `iterations` iterations: the start of a refit.
 ProductMixture em_mixture(const SampleSet& s, int iterations) {
   ProductMixture em = initial_mixture(s, 12, 3);
@@ -96,7 +130,9 @@ TEST(RefineGradient, NeverIncreasesThePredictionError) {
   const SampleSet s = knit_samples(8);
   const ProductMixture em = em_mixture(s, 8);
   ProductMixture colour_only = em;
-  const PredictionRefinement c = refine_for_prediction(s, colour_only, 2, GradientConfig{0});
+  GradientConfig no_rounds;
+  no_rounds.rounds = 0;
+  const PredictionRefinement c = refine_for_prediction(s, colour_only, 2, no_rounds);
   EXPECT_EQ(c.passes, 0);
   EXPECT_EQ(c.error_final, c.error_colour);
   double previous = c.error_colour;
@@ -124,8 +160,10 @@ TEST(RefineGradient, SameModelWithAnyNumberOfThreads) {
   const SampleSet s = knit_samples(8);
   const ProductMixture em = em_mixture(s, 5);
   ProductMixture one = em, two = em;
-  refine_for_prediction(s, one, 1);
-  refine_for_prediction(s, two, 2);
+  GradientConfig g;
+  g.steps = 60;
+  refine_for_prediction(s, one, 1, g);
+  refine_for_prediction(s, two, 2, g);
   EXPECT_EQ(one.weight, two.weight);
   EXPECT_EQ(one.mean, two.mean);
   EXPECT_EQ(one.var, two.var);
@@ -133,6 +171,20 @@ TEST(RefineGradient, SameModelWithAnyNumberOfThreads) {
   const ColourNormalEquations b = colour_normal_equations(s, em, 2);
   EXPECT_EQ(a.gram, b.gram);
   EXPECT_EQ(a.rhs, b.rhs);
+}
+
+// The steps a fit affords: kGradientWorkShare of EM's sample-iterations in passes of
+// GradientConfig::samples samples, within [kMinGradientSteps, kMaxGradientSteps].
+TEST(RefineGradient, AffordableStepsFollowEmsWork) {
+  // The paper's setting: a 25 x 25 tile, 81 x 81 directions, 40 iterations.
+  const GradientConfig paper = affordable_gradient(625 * 6561, 40);
+  EXPECT_EQ(paper.steps, 492);  // 0.12 * 40 * 4,100,625 / 40,000
+  EXPECT_EQ(paper.samples, 40000u);
+  EXPECT_EQ(affordable_gradient(625 * 6561, 100).steps, kMaxGradientSteps);
+  EXPECT_EQ(affordable_gradient(625 * 6561, 0).steps, kMinGradientSteps);
+  // Fewer samples than a pass takes: each pass takes them all.
+  EXPECT_EQ(affordable_gradient(20000, 40).steps, 10);
+  EXPECT_EQ(affordable_gradient(20000, 400).steps, 48);
 }
 
 }  // namespace

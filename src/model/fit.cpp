@@ -206,8 +206,8 @@ namespace {
 // fit_model on a sample set of `tile`.
 BtfModel fit_samples(const SampleSet& samples, const FitTile& tile, const FitConfig& config,
                      const EmCallback& progress, const FitState* resume,
-                     const EmStateCallback& after_iteration, FitState* state,
-                     Clock::time_point t0) {
+                     const EmStateCallback& after_iteration, FitState* state, Clock::time_point t0,
+                     const GradientCallback& refinement = {}) {
   ProductMixture mix =
       resume ? resume->mixture : initial_mixture(samples, config.components, config.seed);
   const EmResult em = fit_em(samples, mix, config.em, progress, resume ? &resume->result : nullptr,
@@ -217,7 +217,9 @@ BtfModel fit_samples(const SampleSet& samples, const FitTile& tile, const FitCon
   // The mixture refined for the prediction: L is then that of the parameters stored.
   double final_l = em.final_log_likelihood;
   if (config.objective == FitObjective::kPrediction) {
-    refine_for_prediction(samples, mix, config.em.threads);
+    GradientConfig gradient = affordable_gradient(samples.size(), em.iterations);
+    gradient.progress = refinement;
+    refine_for_prediction(samples, mix, config.em.threads, gradient);
     final_l = mean_log_likelihood(samples, mix, config.em.threads);
   }
   BtfModel m = model_of(tile, samples, config, std::move(mix), em);
@@ -323,7 +325,7 @@ FitOutcome fit_in_memory(const FitRequest& request, const FitObserver& observer)
   FitState state;
   BtfModel model = fit_samples(loaded.samples, tile, request.config, observer.iteration,
                                request.resume ? &request.resume->checkpoint.state : nullptr,
-                               periodic_checkpoints(request, job), &state, t0);
+                               periodic_checkpoints(request, job), &state, t0, observer.refinement);
   if (state.result.interrupted) return save_interrupted(request, job, std::move(state));
   record_provenance(request, job, loaded.data, model);
   model.precision = request.precision;

@@ -30,31 +30,41 @@ struct SampleWeights {
   std::vector<double> weight;                             // W_m(x_I)
 };
 
+// The exponents t_m of Eq. (9)-(10) on the sample grid as three parts, M values a row: the
+// pixel's (log_weight_base and the terms of x and y), the light's and the view's; sample
+// (p, l, v) has t_m = pixel[p M + m] + light[l M + m] + view[v M + m]. `Real`: the tables' type.
+template <class Real>
+void exponent_parts(const SampleSet& s, const ProductMixture& mix, Real* pixel, Real* light,
+                    Real* view) {
+  const std::size_t m = mix.size(), width = std::size_t(s.width);
+  const Periods periods = variable_periods({double(s.width), double(s.height)});
+  for (std::size_t k = 0; k < m; ++k) {
+    const double base = log_weight_base(mix, k);
+    const auto& mu = mix.mean[k];
+    const auto& var = mix.var[k];
+    for (std::size_t p = 0; p < s.pixels(); ++p)
+      pixel[p * m + k] =
+          Real(base + log_marginal_term(double(p % width), mu[0], var[0], periods[0]) +
+               log_marginal_term(double(p / width), mu[1], var[1], periods[1]));
+    for (std::size_t l = 0; l < s.lights; ++l)
+      light[l * m + k] = Real(log_marginal_term(s.light_ab[l][0], mu[2], var[2], 0.0) +
+                              log_marginal_term(s.light_ab[l][1], mu[3], var[3], 0.0));
+    for (std::size_t v = 0; v < s.views; ++v)
+      view[v * m + k] = Real(log_marginal_term(s.view_ab[v][0], mu[4], var[4], 0.0) +
+                             log_marginal_term(s.view_ab[v][1], mu[5], var[5], 0.0));
+  }
+}
+
 class GridWeights {
  public:
   // `stride`: only the samples of pixel p and (light, view) pair l nv + v whose sum p + l nv + v
   // it divides (kept()).
   GridWeights(const SampleSet& s, const ProductMixture& mix, std::size_t stride = 1)
       : s_(s), m_(mix.size()), stride_(stride) {
-    const Periods periods = variable_periods({double(s.width), double(s.height)});
     pixel_.resize(s.pixels() * m_);
     light_.resize(s.lights * m_);
     view_.resize(s.views * m_);
-    for (std::size_t k = 0; k < m_; ++k) {
-      const double base = log_weight_base(mix, k);
-      const auto& mu = mix.mean[k];
-      const auto& var = mix.var[k];
-      for (std::size_t p = 0; p < s.pixels(); ++p)
-        pixel_[p * m_ + k] =
-            base + log_marginal_term(double(p % std::size_t(s.width)), mu[0], var[0], periods[0]) +
-            log_marginal_term(double(p / std::size_t(s.width)), mu[1], var[1], periods[1]);
-      for (std::size_t l = 0; l < s.lights; ++l)
-        light_[l * m_ + k] = log_marginal_term(s.light_ab[l][0], mu[2], var[2], 0.0) +
-                             log_marginal_term(s.light_ab[l][1], mu[3], var[3], 0.0);
-      for (std::size_t v = 0; v < s.views; ++v)
-        view_[v * m_ + k] = log_marginal_term(s.view_ab[v][0], mu[4], var[4], 0.0) +
-                            log_marginal_term(s.view_ab[v][1], mu[5], var[5], 0.0);
-    }
+    exponent_parts(s, mix, pixel_.data(), light_.data(), view_.data());
   }
 
   // The samples visit_pixel visits, over every pixel.

@@ -157,6 +157,15 @@ namespace {
 constexpr std::size_t kRefitSamples = 250000;
 }  // namespace
 
+GradientConfig affordable_gradient(std::size_t samples, int em_iterations) {
+  GradientConfig g;
+  const double per_pass = double(std::max<std::size_t>(1, std::min(samples, g.samples)));
+  const double steps = std::round(kGradientWorkShare * double(std::max(em_iterations, 0)) *
+                                  double(samples) / per_pass);
+  g.steps = int(std::clamp(steps, double(kMinGradientSteps), double(kMaxGradientSteps)));
+  return g;
+}
+
 PredictionRefinement refine_for_prediction(const SampleSet& samples, ProductMixture& mix,
                                            int threads, const GradientConfig& gradient) {
   PredictionRefinement out;

@@ -2,11 +2,16 @@
 // mixture (the weights, the means and variances of the six inputs, the colour means), Adam
 // steps, each round closed by the closed-form colour refit (refine.cpp); docs/ALGORITHM.md,
 // "Fitting for the prediction".
+#include <omp.h>
+
 #include <algorithm>
 #include <cmath>
+#include <limits>
+#include <type_traits>
 #include <vector>
 
 #include "btfgmm/model/refine.hpp"
+#include "core/fast_exp.hpp"
 #include "model/grid_weights.hpp"
 #include "model/mixture_internal.hpp"
 #include "model/refine_internal.hpp"
@@ -15,105 +20,240 @@ namespace btfgmm {
 
 namespace {
 
-// One chunk's sums of g_im per light and per view, of dE/dmu_m,6+c, and of the error; the sums
-// per pixel go straight into the totals (a pixel belongs to one chunk).
-struct ChunkSums {
-  std::vector<double> light, view, colour;
+template <class Real>
+Real exp_of(Real x) {
+  if constexpr (std::is_same_v<Real, float>)
+    return detail::fast_exp(x);
+  else
+    return std::exp(x);
+}
+
+// One thread's sums over a chunk of pixels (GradientPass::kChunkPixels): g_im per light and
+// per view, dE/dmu_m,6+c (3 rows of M), dE/da_m and dE/dmu, dE/ds of x and y (5 rows of M,
+// from each pixel's own sum `pixel`), the error and the samples; `w` the weights of the sample
+// at hand.
+template <class Real>
+struct PassSums {
+  std::vector<Real> light, view, colour, pixel, w;
+  std::vector<double> position;
   double error = 0.0;
-  ChunkSums(std::size_t lights, std::size_t views, std::size_t m)
-      : light(lights * m, 0.0), view(views * m, 0.0), colour(m * 3, 0.0) {}
+  std::size_t samples = 0;
+  PassSums(std::size_t lights, std::size_t views, std::size_t m)
+      : light(lights * m), view(views * m), colour(3 * m), pixel(m), w(m), position(5 * m) {}
 };
 
-// One sample's part: its error, and g_m = dE/dt_m for each kept component (Eq. 8-9).
-void add_sample(const detail::SampleWeights& s, const ProductMixture& mix, double* pixel,
-                ChunkSums& acc) {
-  const std::size_t m = mix.size();
-  double yhat[3] = {0, 0, 0};
-  for (std::size_t a = 0; a < s.component.size(); ++a)
-    for (int c = 0; c < 3; ++c) yhat[c] += s.weight[a] * mix.mean[s.component[a]][6 + c];
-  double e[3];
-  for (int c = 0; c < 3; ++c) {
-    e[c] = double(s.residual[c]) - yhat[c];
-    acc.error += e[c] * e[c];
-  }
-  double* light = &acc.light[s.light * m];
-  double* view = &acc.view[s.view * m];
-  for (std::size_t a = 0; a < s.component.size(); ++a) {
-    const std::size_t k = s.component[a];
-    const auto& mu = mix.mean[k];
-    const double w2 = -2.0 * s.weight[a];
-    double g = 0.0;
-    for (int c = 0; c < 3; ++c) {
-      g += e[c] * (mu[std::size_t(6 + c)] - yhat[c]);
-      acc.colour[k * 3 + std::size_t(c)] += w2 * e[c];
-    }
-    g *= w2;
-    pixel[k] += g;
-    light[k] += g;
-    view[k] += g;
-  }
-}
+// A gradient pass of the prediction's squared error (prediction_gradient, model/refine.hpp)
+// over the samples of a stride, its tables and sums kept from one pass to the next (the
+// Adam steps make one pass each). Every weight and per-chunk sum in `Real`, the totals in
+// double.
+template <class Real>
+class GradientPass {
+ public:
+  // Pixels a chunk holds: the chunks, and so the order of every sum, are the same for any
+  // number of threads.
+  static constexpr std::size_t kChunkPixels = 32;
 
-// d t / d mu and d t / d s of one input: the term -s/2 - d^2 / (2 sigma^2) of Eq. (10).
-void add_input_gradient(double g, double x, std::size_t k, int n, const ProductMixture& mix,
-                        double period, PredictionGradient& out) {
-  const double var = mix.var[k][std::size_t(n)];
-  const double d = detail::wrapped_difference(x - mix.mean[k][std::size_t(n)], period);
-  out.mean[k][std::size_t(n)] += g * d / var;
-  out.log_var[k][std::size_t(n)] += 0.5 * g * (d * d / var - 1.0);
-}
+  GradientPass(const SampleSet& s, std::size_t m, int threads, std::size_t stride)
+      : s_(s),
+        m_(m),
+        threads_(threads > 0 ? threads : omp_get_max_threads()),
+        stride_(std::max<std::size_t>(stride, 1)),
+        pixel_(s.pixels() * m),
+        light_(s.lights * m),
+        view_(s.views * m),
+        colour_(3 * m),
+        position_(5 * m),
+        mean_(4 * m),
+        total_light_(s.lights * m),
+        total_view_(s.views * m),
+        total_colour_(3 * m),
+        sums_(std::size_t(threads_), PassSums<Real>(s.lights, s.views, m)) {}
+
+  PredictionGradient operator()(const ProductMixture& mix) {
+    set_tables(mix);
+    sum_over_chunks();
+    return gradient(mix);
+  }
+
+ private:
+  void set_tables(const ProductMixture& mix) {
+    detail::exponent_parts(s_, mix, pixel_.data(), light_.data(), view_.data());
+    for (std::size_t k = 0; k < m_; ++k) {
+      for (std::size_t c = 0; c < 3; ++c) colour_[c * m_ + k] = Real(mix.mean[k][6 + c]);
+      for (std::size_t n = 0; n < 2; ++n) {
+        mean_[n * m_ + k] = mix.mean[k][n];
+        mean_[(2 + n) * m_ + k] = mix.var[k][n];
+      }
+    }
+    std::fill(position_.begin(), position_.end(), 0.0);
+    std::fill(total_light_.begin(), total_light_.end(), 0.0);
+    std::fill(total_view_.begin(), total_view_.end(), 0.0);
+    std::fill(total_colour_.begin(), total_colour_.end(), 0.0);
+    error_ = 0.0;
+    samples_ = 0;
+  }
+
+  // One sample's part (Eq. 8-10): its weights W_m = softmax(t_m) over all M components, the
+  // prediction yhat_c = sum_m W_m mu_m,6+c, its error, and g_m = dE/dt_m
+  // = -2 W_m sum_c e_c (mu_m,6+c - yhat_c) added to the sums of its pixel, light and view.
+  void add_sample(std::size_t p, std::size_t l, std::size_t v, PassSums<Real>& acc) const {
+    const std::size_t m = m_;
+    const Real *tp = &pixel_[p * m], *tl = &light_[l * m], *tv = &view_[v * m];
+    const Real *mu0 = &colour_[0], *mu1 = &colour_[m], *mu2 = &colour_[2 * m];
+    Real* w = acc.w.data();
+#pragma omp simd
+    for (std::size_t k = 0; k < m; ++k) w[k] = tp[k] + tl[k] + tv[k];
+    Real top = -std::numeric_limits<Real>::infinity();
+#pragma omp simd reduction(max : top)
+    for (std::size_t k = 0; k < m; ++k) top = top > w[k] ? top : w[k];
+    Real sum = 0;
+#pragma omp simd reduction(+ : sum)
+    for (std::size_t k = 0; k < m; ++k) {
+      w[k] = exp_of(w[k] - top);
+      sum += w[k];
+    }
+    const Real inv = Real(1) / sum;
+    Real y0 = 0, y1 = 0, y2 = 0;
+#pragma omp simd reduction(+ : y0, y1, y2)
+    for (std::size_t k = 0; k < m; ++k) {
+      w[k] *= inv;
+      y0 += w[k] * mu0[k];
+      y1 += w[k] * mu1[k];
+      y2 += w[k] * mu2[k];
+    }
+    const Real e0 = Real(s_.residual_of(p, l, v, 0)) - y0,
+               e1 = Real(s_.residual_of(p, l, v, 1)) - y1,
+               e2 = Real(s_.residual_of(p, l, v, 2)) - y2;
+    acc.error += double(e0) * double(e0) + double(e1) * double(e1) + double(e2) * double(e2);
+    ++acc.samples;
+    const Real base = e0 * y0 + e1 * y1 + e2 * y2;
+    Real *pixel = acc.pixel.data(), *light = &acc.light[l * m], *view = &acc.view[v * m];
+    Real *c0 = &acc.colour[0], *c1 = &acc.colour[m], *c2 = &acc.colour[2 * m];
+#pragma omp simd
+    for (std::size_t k = 0; k < m; ++k) {
+      const Real w2 = Real(-2) * w[k];
+      const Real g = w2 * (e0 * mu0[k] + e1 * mu1[k] + e2 * mu2[k] - base);
+      pixel[k] += g;
+      light[k] += g;
+      view[k] += g;
+      c0[k] += w2 * e0;
+      c1[k] += w2 * e1;
+      c2[k] += w2 * e2;
+    }
+  }
+
+  // Pixel p's samples of the stride (GridWeights::kept), then its sum of g_m as dE/da_m and,
+  // through the terms of x and y in t_m (Eq. 10), dE/dmu and dE/ds of x and y.
+  void add_pixel(std::size_t p, PassSums<Real>& acc) const {
+    std::fill(acc.pixel.begin(), acc.pixel.end(), Real(0));
+    const std::size_t first = s_.first_light * s_.views, end = s_.light_end() * s_.views;
+    for (std::size_t j = first + (stride_ - (p + first) % stride_) % stride_; j < end; j += stride_)
+      add_sample(p, j / s_.views, j % s_.views, acc);
+    const detail::Periods periods = detail::variable_periods({double(s_.width), double(s_.height)});
+    const double x[2] = {double(p % std::size_t(s_.width)), double(p / std::size_t(s_.width))};
+    double* out = acc.position.data();
+    for (std::size_t k = 0; k < m_; ++k) {
+      const double g = double(acc.pixel[k]);
+      out[k] += g;
+      for (std::size_t n = 0; n < 2; ++n) {
+        const double var = mean_[(2 + n) * m_ + k];
+        const double d = detail::wrapped_difference(x[n] - mean_[n * m_ + k], periods[n]);
+        out[(1 + n) * m_ + k] += g * d / var;
+        out[(3 + n) * m_ + k] += 0.5 * g * (d * d / var - 1.0);
+      }
+    }
+  }
+
+  // Every chunk's sums, added to the totals in chunk order and cleared.
+  void sum_over_chunks() {
+    const std::size_t pixels = s_.pixels();
+    const std::ptrdiff_t chunks = std::ptrdiff_t((pixels + kChunkPixels - 1) / kChunkPixels);
+#pragma omp parallel num_threads(threads_)
+    {
+      PassSums<Real>& acc = sums_[std::size_t(omp_get_thread_num())];
+#pragma omp for ordered schedule(dynamic, 1)
+      for (std::ptrdiff_t c = 0; c < chunks; ++c) {
+        const std::size_t chunk_end = std::min(pixels, std::size_t(c + 1) * kChunkPixels);
+        for (std::size_t p = std::size_t(c) * kChunkPixels; p < chunk_end; ++p) add_pixel(p, acc);
+#pragma omp ordered
+        add_and_clear(acc);
+      }
+    }
+  }
+
+  void add_and_clear(PassSums<Real>& acc) {
+    add_and_clear(acc.light, total_light_);
+    add_and_clear(acc.view, total_view_);
+    add_and_clear(acc.colour, total_colour_);
+    for (std::size_t i = 0; i < acc.position.size(); ++i) {
+      position_[i] += acc.position[i];
+      acc.position[i] = 0.0;
+    }
+    error_ += acc.error;
+    samples_ += acc.samples;
+    acc.error = 0.0;
+    acc.samples = 0;
+  }
+  static void add_and_clear(std::vector<Real>& from, std::vector<double>& to) {
+    for (std::size_t i = 0; i < from.size(); ++i) {
+      to[i] += double(from[i]);
+      from[i] = Real(0);
+    }
+  }
+
+  // d t / d mu and d t / d s of an angle: the term -s/2 - d^2 / (2 sigma^2) of Eq. (10).
+  static void add_angle_gradient(double g, double x, std::size_t k, std::size_t n,
+                                 const ProductMixture& mix, PredictionGradient& out) {
+    const double var = mix.var[k][n];
+    const double d = x - mix.mean[k][n];
+    out.mean[k][n] += g * d / var;
+    out.log_var[k][n] += 0.5 * g * (d * d / var - 1.0);
+  }
+
+  PredictionGradient gradient(const ProductMixture& mix) const {
+    PredictionGradient out;
+    out.samples = samples_;
+    out.error = error_;
+    out.log_weight.assign(m_, 0.0);
+    out.mean.assign(m_, {});
+    out.log_var.assign(m_, {});
+    for (std::size_t k = 0; k < m_; ++k) {
+      out.log_weight[k] = position_[k];
+      for (std::size_t n = 0; n < 2; ++n) {
+        out.mean[k][n] = position_[(1 + n) * m_ + k];
+        out.log_var[k][n] = position_[(3 + n) * m_ + k];
+      }
+      for (std::size_t l = s_.first_light; l < s_.light_end(); ++l)
+        for (std::size_t j = 0; j < 2; ++j)
+          add_angle_gradient(total_light_[l * m_ + k], s_.light_ab[l][j], k, 2 + j, mix, out);
+      for (std::size_t v = 0; v < s_.views; ++v)
+        for (std::size_t j = 0; j < 2; ++j)
+          add_angle_gradient(total_view_[v * m_ + k], s_.view_ab[v][j], k, 4 + j, mix, out);
+      for (std::size_t c = 0; c < 3; ++c) out.mean[k][6 + c] = total_colour_[c * m_ + k];
+    }
+    return out;
+  }
+
+  const SampleSet& s_;
+  std::size_t m_;
+  int threads_;
+  std::size_t stride_;
+  std::vector<Real> pixel_, light_, view_, colour_;  // the exponents' parts, mu_m,6+c
+  std::vector<double> position_;  // dE/da_m, dE/dmu_m0, dE/dmu_m1, dE/ds_m0, dE/ds_m1
+  std::vector<double> mean_;      // mu_m0, mu_m1, sigma^2_m0, sigma^2_m1
+  std::vector<double> total_light_, total_view_, total_colour_;
+  double error_ = 0.0;
+  std::size_t samples_ = 0;
+  std::vector<PassSums<Real>> sums_;  // one per thread
+};
 
 }  // namespace
 
 PredictionGradient prediction_gradient(const SampleSet& samples, const ProductMixture& mix,
-                                       int threads, std::size_t stride) {
-  const std::size_t m = mix.size();
-  const detail::GridWeights grid(samples, mix, std::max<std::size_t>(stride, 1));
-  PredictionGradient out;
-  out.samples = grid.samples();
-  std::vector<double> pixel(samples.pixels() * m, 0.0);
-  ChunkSums total(samples.lights, samples.views, m);
-  grid.reduce_in_chunks(
-      threads, [&samples, m] { return ChunkSums(samples.lights, samples.views, m); },
-      [&](const detail::SampleWeights& s, ChunkSums& acc) {
-        add_sample(s, mix, &pixel[s.pixel * m], acc);
-      },
-      [&total](ChunkSums& acc) {
-        for (std::size_t i = 0; i < acc.light.size(); ++i) total.light[i] += acc.light[i];
-        for (std::size_t i = 0; i < acc.view.size(); ++i) total.view[i] += acc.view[i];
-        for (std::size_t i = 0; i < acc.colour.size(); ++i) total.colour[i] += acc.colour[i];
-        total.error += acc.error;
-        std::fill(acc.light.begin(), acc.light.end(), 0.0);
-        std::fill(acc.view.begin(), acc.view.end(), 0.0);
-        std::fill(acc.colour.begin(), acc.colour.end(), 0.0);
-        acc.error = 0.0;
-      });
-  out.error = total.error;
-  out.log_weight.assign(m, 0.0);
-  out.mean.assign(m, {});
-  out.log_var.assign(m, {});
-  const detail::Periods periods =
-      detail::variable_periods({double(samples.width), double(samples.height)});
-  const std::size_t width = std::size_t(samples.width);
-  for (std::size_t k = 0; k < m; ++k) {
-    for (std::size_t p = 0; p < samples.pixels(); ++p) {
-      const double g = pixel[p * m + k];
-      out.log_weight[k] += g;
-      add_input_gradient(g, double(p % width), k, 0, mix, periods[0], out);
-      add_input_gradient(g, double(p / width), k, 1, mix, periods[1], out);
-    }
-    for (std::size_t l = samples.first_light; l < samples.light_end(); ++l)
-      for (int j = 0; j < 2; ++j)
-        add_input_gradient(total.light[l * m + k], samples.light_ab[l][std::size_t(j)], k, 2 + j,
-                           mix, 0.0, out);
-    for (std::size_t v = 0; v < samples.views; ++v)
-      for (int j = 0; j < 2; ++j)
-        add_input_gradient(total.view[v * m + k], samples.view_ab[v][std::size_t(j)], k, 4 + j, mix,
-                           0.0, out);
-    for (int c = 0; c < 3; ++c)
-      out.mean[k][std::size_t(6 + c)] = total.colour[k * 3 + std::size_t(c)];
-  }
-  return out;
+                                       int threads, std::size_t stride, PassPrecision precision) {
+  if (precision == PassPrecision::kFloat)
+    return GradientPass<float>(samples, mix.size(), threads, stride)(mix);
+  return GradientPass<double>(samples, mix.size(), threads, stride)(mix);
 }
 
 namespace {
@@ -160,47 +300,43 @@ void unpack(const std::vector<double>& th, ProductMixture& mix, const detail::Pe
   }
 }
 
-// One round of Adam steps (Kingma & Ba 2015, beta 0.9, 0.999) from `mix`, the rate scaled by
-// a factor from 0.1 that grows by 1.2 after a step that lowers the error; a step that raises
-// it is undone and the factor halved. Leaves in `mix` the parameters of the lowest error
-// met and returns that error.
+// One round of Adam steps (Kingma & Ba 2015: beta 0.9, 0.999, bias-corrected moments) from
+// `mix` at a constant rate, warmed up linearly over the first kWarmUpSteps steps. The steps
+// go on from the parameters they reached, also after a step that raised the error (on a
+// subsample the error is noisy: undoing such steps and restarting the moments stalled the
+// descent, docs/ALGORITHM.md); the parameters of the lowest error met are the round's result.
+// Leaves them in `mix` and returns their error.
 double adam_round(const SampleSet& samples, ProductMixture& mix, int threads, std::size_t stride,
-                  const GradientConfig& config, int& passes) {
+                  const GradientConfig& config, int round, int& passes) {
+  constexpr int kWarmUpSteps = 20;
   const detail::Periods periods =
       detail::variable_periods({double(samples.width), double(samples.height)});
   ProductMixture best = mix;
-  PredictionGradient best_gradient;
-  double best_error = INFINITY, scale = 0.1;
-  std::vector<double> m1(mix.size() * kParams, 0.0), m2(m1.size(), 0.0);
-  int t = 0;
-  for (int step = 0; step <= config.steps; ++step) {
-    PredictionGradient g = prediction_gradient(samples, mix, threads, stride);
+  double best_error = INFINITY;
+  std::vector<double> theta = pack(mix), m1(theta.size(), 0.0), m2(theta.size(), 0.0);
+  GradientPass<float> pass(samples, mix.size(), threads, stride);
+  for (int t = 1; t <= config.steps + 1; ++t) {
+    const PredictionGradient g = pass(mix);
     ++passes;
     if (g.error < best_error) {
       best = mix;
       best_error = g.error;
-      best_gradient = std::move(g);
-      scale = std::min(1.0, scale * 1.2);
-    } else {  // undo the step, halve the rate, restart the moments
-      mix = best;
-      scale *= 0.5;
-      std::fill(m1.begin(), m1.end(), 0.0);
-      std::fill(m2.begin(), m2.end(), 0.0);
-      t = 0;
     }
-    if (step == config.steps) break;
-    ++t;
-    std::vector<double> th = pack(mix);
-    const std::vector<double> grad = pack(best_gradient);
+    if (config.progress)
+      config.progress({round, t - 1, config.steps,
+                       std::sqrt(best_error / double(3 * std::max<std::size_t>(g.samples, 1)))});
+    if (t > config.steps) break;
+    const std::vector<double> grad = pack(g);
+    const double warm_up = std::min(1.0, double(t) / kWarmUpSteps);
     const double c1 = 1.0 - std::pow(0.9, t), c2 = 1.0 - std::pow(0.999, t);
-    for (std::size_t i = 0; i < th.size(); ++i) {
+    for (std::size_t i = 0; i < theta.size(); ++i) {
       m1[i] = 0.9 * m1[i] + 0.1 * grad[i];
       m2[i] = 0.999 * m2[i] + 0.001 * grad[i] * grad[i];
       const std::size_t j = i % kParams;
-      const double rate = (j >= 7 && j < 10 ? config.colour_rate : config.rate) * scale;
-      th[i] -= rate * (m1[i] / c1) / (std::sqrt(m2[i] / c2) + 1e-300);
+      const double rate = (j >= 7 && j < 10 ? config.colour_rate : config.rate) * warm_up;
+      theta[i] -= rate * (m1[i] / c1) / (std::sqrt(m2[i] / c2) + 1e-300);
     }
-    unpack(th, mix, periods);
+    unpack(theta, mix, periods);
   }
   mix = std::move(best);
   return best_error;
@@ -217,7 +353,7 @@ double gradient_rounds(const SampleSet& samples, ProductMixture& mix, int thread
       std::max<std::size_t>(1, samples.size() / std::max<std::size_t>(config.samples, 1));
   for (int r = 0; r < config.rounds; ++r) {
     ProductMixture trial = mix;
-    adam_round(samples, trial, threads, pass_stride, config, passes);
+    adam_round(samples, trial, threads, pass_stride, config, r + 1, passes);
     const ColourRefit refit =
         refit_colour_means(colour_normal_equations(samples, trial, threads, stride), trial);
     if (!(refit.error_after < error)) break;

@@ -106,6 +106,8 @@ struct FitObserver {
   // The tile is in memory (for a resume: the very data of the checkpoint); EM starts next.
   std::function<void(const FitTile& tile)> started;
   EmCallback iteration;  // after every EM iteration, as fit_em's progress
+  // The fit for the prediction: after every gradient step (refine_for_prediction).
+  GradientCallback refinement;
 };
 
 struct FitOutcome {

@@ -5,6 +5,7 @@
 
 #include <array>
 #include <cstddef>
+#include <functional>
 #include <string_view>
 #include <vector>
 
@@ -78,23 +79,47 @@ struct PredictionGradient {
   std::vector<std::array<double, kInputs>> log_var;  // dE/ds_mn, n = 0..5
   std::size_t samples = 0;
 };
+// kDouble: every weight and sum in double (std::exp); kFloat: the weights and the per-sample
+// sums in float (fast_exp, vectorised over the components), the totals in double, several
+// times faster: what the Adam steps use (within 1e-4 relative of kDouble, tests).
+enum class PassPrecision { kDouble, kFloat };
 PredictionGradient prediction_gradient(const SampleSet& samples, const ProductMixture& mix,
-                                       int threads = 0, std::size_t stride = 1);
+                                       int threads = 0, std::size_t stride = 1,
+                                       PassPrecision precision = PassPrecision::kDouble);
+
+// Where the gradient passes are: after `step` of `steps` Adam steps of round `round` (from 1),
+// the RMSE (model units: levels) of the lowest error met, on the passes' subsample.
+struct GradientProgress {
+  int round = 1, step = 0, steps = 0;
+  double rmse = 0.0;
+};
+using GradientCallback = std::function<void(const GradientProgress&)>;
 
 // The gradient passes of refine_for_prediction: `rounds` times, `steps` Adam steps on all
-// parameters (the rate `rate` in each parameter's own unit: a_m, the input means in their
-// units, s_mn; `colour_rate` levels for the colour means), times a factor that starts at 0.1,
-// grows by 1.2 after a step that lowered E and halves after one that raised it (that step
-// undone), then the colour means refitted in closed form. rounds 0: the colour refit alone.
-// The passes take a systematic subsample of about `samples` samples (a stride as
-// colour_normal_equations takes it), the refits their own (refine_for_prediction).
+// parameters at a constant rate (warmed up over the first 20 steps; `rate` in each
+// parameter's own unit: a_m, the input means in their units, s_mn; `colour_rate` levels for
+// the colour means), the parameters of the lowest error met kept, then the colour means
+// refitted in closed form. rounds 0: the colour refit alone. The passes take a systematic
+// subsample of about `samples` samples (a stride as colour_normal_equations takes it), the
+// refits their own (refine_for_prediction).
 struct GradientConfig {
   int rounds = 1;
-  int steps = 120;
-  double rate = 0.01;
-  double colour_rate = 1.0;
+  int steps = 600;
+  double rate = 0.02;
+  double colour_rate = 2.0;
   std::size_t samples = 40000;
+  GradientCallback progress;  // after every step (may be empty)
 };
+
+// The gradient passes a fit can afford beside EM's `em_iterations` iterations over `samples`
+// samples, within twice the time of EM alone: steps whose work (steps x the samples of a
+// pass) is kGradientWorkShare of EM's (iterations x samples), between kMinGradientSteps and
+// kMaxGradientSteps. A sample of a pass costs about four times a sample of an EM iteration
+// (the gradient's sums beside the weights), so the passes take about half of EM's time; the
+// two colour refits and the last E pass add a few per cent (docs/ALGORITHM.md).
+constexpr double kGradientWorkShare = 0.12;
+constexpr int kMinGradientSteps = 10, kMaxGradientSteps = 1000;
+GradientConfig affordable_gradient(std::size_t samples, int em_iterations);
 
 // What refine_for_prediction did: the prediction's squared error (model units squared, all
 // samples and channels) after EM and after each stage.
