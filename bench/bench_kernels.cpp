@@ -15,6 +15,7 @@
 #include "btfgmm/model/em.hpp"
 #include "btfgmm/model/model.hpp"
 #include "btfgmm/model/predict.hpp"
+#include "btfgmm/model/refine.hpp"
 #include "btfgmm/model/samples.hpp"
 #include "btfgmm/render/render.hpp"
 #include "core/fast_exp.hpp"
@@ -99,6 +100,25 @@ void BM_EmIteration(benchmark::State& state) {
                           std::int64_t(samples().size() * start.size()));
 }
 BENCHMARK(BM_EmIteration)->Arg(0)->Arg(10)->Unit(benchmark::kMillisecond)->UseRealTime();
+
+// One gradient pass of the fit for the prediction (prediction_gradient) over every 10th
+// sample (about 42,000, as the Adam steps take about 40,000), in float (range(0) 0, what the
+// steps use) or in double (1), of the mixture after 10 EM iterations. Items: sample x component
+// pairs, to compare with an EM iteration's.
+void BM_GradientPass(benchmark::State& state) {
+  const btfgmm::ProductMixture mix = fitted(10);
+  const auto precision =
+      state.range(0) == 0 ? btfgmm::PassPrecision::kFloat : btfgmm::PassPrecision::kDouble;
+  std::size_t pairs = 0;
+  for (auto _ : state) {
+    const btfgmm::PredictionGradient g =
+        btfgmm::prediction_gradient(samples(), mix, 0, 10, precision);
+    benchmark::DoNotOptimize(g.error);
+    pairs += g.samples * mix.size();
+  }
+  state.SetItemsProcessed(std::int64_t(pairs));
+}
+BENCHMARK(BM_GradientPass)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond)->UseRealTime();
 
 // decode() of the whole tile at the tolerance range(0) / 1000 levels. Items: predictions x
 // components.

@@ -178,13 +178,13 @@ TEST(RefineGradient, SameModelWithAnyNumberOfThreads) {
 TEST(RefineGradient, AffordableStepsFollowEmsWork) {
   // The paper's setting: a 25 x 25 tile, 81 x 81 directions, 40 iterations.
   const GradientConfig paper = affordable_gradient(625 * 6561, 40);
-  EXPECT_EQ(paper.steps, 492);  // 0.12 * 40 * 4,100,625 / 40,000
+  EXPECT_EQ(paper.steps, 410);  // 0.1 * 40 * 4,100,625 / 40,000
   EXPECT_EQ(paper.samples, 40000u);
   EXPECT_EQ(affordable_gradient(625 * 6561, 100).steps, kMaxGradientSteps);
   EXPECT_EQ(affordable_gradient(625 * 6561, 0).steps, kMinGradientSteps);
   // Fewer samples than a pass takes: each pass takes them all.
   EXPECT_EQ(affordable_gradient(20000, 40).steps, 10);
-  EXPECT_EQ(affordable_gradient(20000, 400).steps, 48);
+  EXPECT_EQ(affordable_gradient(20000, 400).steps, 40);
 }
 
 }  // namespace

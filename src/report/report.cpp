@@ -71,7 +71,7 @@ tr.base td{color:#6b7280;font-style:italic}
 .pairs{display:grid;grid-template-columns:repeat(2,auto);gap:10px 22px}
 figure{margin:0}.imgs{display:flex;gap:3px}.imgs span{display:block;font-size:11px;color:#6b7280;text-align:center}
 img{image-rendering:pixelated;display:block;outline:1px solid #d1d5db}
-figcaption{font-size:12px;color:#374151;margin-top:2px}figcaption b{color:#111827}
+figcaption{font-size:12px;color:#374151;margin-top:2px;overflow-wrap:anywhere}figcaption b{color:#111827}
 .maps{display:flex;flex-direction:column;gap:8px;flex:0 0 auto}
 .curves{display:flex;gap:14px;flex-wrap:wrap}
 .note{color:#6b7280;font-size:12px;margin:6px 0 0}.wide{overflow-x:auto}

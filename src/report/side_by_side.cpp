@@ -194,14 +194,16 @@ std::string side_by_side(const fs::path& folder, std::span<const ModelComparison
   s += fmt::format(
       "<p class=\"note\">Rows: the (light, view) pairs where {} decodes worst, and a typical "
       "one; columns: the original, then each model of the tile{}, with its true file size and "
-      "that image's PSNR. All on the original's scale, enlarged {} &times; without smoothing. "
-      "A synthesis model makes new texture with the data's statistics, so its picture is not "
-      "aligned with the data's pixels and has no pixel-wise PSNR; judge it by eye and by the "
-      "statistics of <code>compare</code>.</p></section>\n",
+      "that image's PSNR. All on the original's scale, enlarged {} &times; without smoothing.{}"
+      "</p></section>\n",
       svg::escape(models[0].name),
       of_tile > kMostModels ? fmt::format(" (the first {} of {})", kMostModels, of_tile)
                             : std::string(),
-      f);
+      f,
+      synthesis ? " A synthesis model makes new texture with the data's statistics, so its "
+                  "picture is not aligned with the data's pixels and has no pixel-wise PSNR; "
+                  "judge it by eye and by the statistics of <code>compare</code>."
+                : "");
   return s;
 }
 

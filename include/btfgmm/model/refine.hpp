@@ -115,9 +115,9 @@ struct GradientConfig {
 // samples, within twice the time of EM alone: steps whose work (steps x the samples of a
 // pass) is kGradientWorkShare of EM's (iterations x samples), between kMinGradientSteps and
 // kMaxGradientSteps. A sample of a pass costs about four times a sample of an EM iteration
-// (the gradient's sums beside the weights), so the passes take about half of EM's time; the
+// (the gradient's sums beside the weights), so the passes take about 0.4 of EM's time; the
 // two colour refits and the last E pass add a few per cent (docs/ALGORITHM.md).
-constexpr double kGradientWorkShare = 0.12;
+constexpr double kGradientWorkShare = 0.10;
 constexpr int kMinGradientSteps = 10, kMaxGradientSteps = 1000;
 GradientConfig affordable_gradient(std::size_t samples, int em_iterations);
 
