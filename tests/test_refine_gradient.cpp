@@ -91,7 +91,10 @@ TEST(RefineGradient, FloatPassAgreesWithTheDoublePass) {
     const PredictionGradient d = prediction_gradient(s, mix, 2, stride, PassPrecision::kDouble);
     const PredictionGradient f = prediction_gradient(s, mix, 1, stride, PassPrecision::kFloat);
     EXPECT_EQ(f.samples, d.samples);
-    EXPECT_LT(d.samples, s.size() / stride + 2);
+    // The same subsample as the colour refit's normal equations (GridWeights::kept).
+    const ColourNormalEquations eq = colour_normal_equations(s, mix, 1, stride);
+    EXPECT_EQ(d.samples, eq.samples);
+    EXPECT_NEAR(d.error, prediction_squared_error(eq, mix), 1e-9 * d.error);
     EXPECT_NEAR(f.error, d.error, 1e-6 * d.error);
     double top[3] = {0, 0, 0}, worst[3] = {0, 0, 0};  // a, mu, s
     for (std::size_t k = 0; k < mix.size(); ++k) {
@@ -173,18 +176,36 @@ TEST(RefineGradient, SameModelWithAnyNumberOfThreads) {
   EXPECT_EQ(a.rhs, b.rhs);
 }
 
+// The float pass over many chunks with enough components for whole vectors: the same bits
+// with one, two and three threads (each thread's buffers are aligned alike, so the vector
+// sums run in the same order whichever thread takes a chunk).
+TEST(RefineGradient, FloatPassIsTheSameWithAnyNumberOfThreads) {
+  const SampleSet s = knit_samples(16);  // 256 pixels: 8 chunks
+  const ProductMixture mix = em_mixture(s, std::size_t(72));
+  const PredictionGradient one = prediction_gradient(s, mix, 1, 3, PassPrecision::kFloat);
+  for (int threads : {2, 3}) {
+    const PredictionGradient more = prediction_gradient(s, mix, threads, 3, PassPrecision::kFloat);
+    EXPECT_EQ(one.error, more.error) << threads;
+    EXPECT_EQ(one.log_weight, more.log_weight) << threads;
+    EXPECT_EQ(one.mean, more.mean) << threads;
+    EXPECT_EQ(one.log_var, more.log_var) << threads;
+  }
+}
+
 // The steps a fit affords: kGradientWorkShare of EM's sample-iterations in passes of
 // GradientConfig::samples samples, within [kMinGradientSteps, kMaxGradientSteps].
 TEST(RefineGradient, AffordableStepsFollowEmsWork) {
   // The paper's setting: a 25 x 25 tile, 81 x 81 directions, 40 iterations.
   const GradientConfig paper = affordable_gradient(625 * 6561, 40);
-  EXPECT_EQ(paper.steps, 410);  // 0.1 * 40 * 4,100,625 / 40,000
+  EXPECT_EQ(paper.steps, 408);  // 0.1 * 40 * 102, passes of 4,100,625 / 102 samples
   EXPECT_EQ(paper.samples, 40000u);
   EXPECT_EQ(affordable_gradient(625 * 6561, 100).steps, kMaxGradientSteps);
   EXPECT_EQ(affordable_gradient(625 * 6561, 0).steps, kMinGradientSteps);
   // Fewer samples than a pass takes: each pass takes them all.
   EXPECT_EQ(affordable_gradient(20000, 40).steps, 10);
   EXPECT_EQ(affordable_gradient(20000, 400).steps, 40);
+  // Up to twice the samples wanted still make one pass of all of them.
+  EXPECT_EQ(affordable_gradient(70000, 400).steps, 40);
 }
 
 }  // namespace

@@ -159,9 +159,9 @@ constexpr std::size_t kRefitSamples = 250000;
 
 GradientConfig affordable_gradient(std::size_t samples, int em_iterations) {
   GradientConfig g;
-  const double per_pass = double(std::max<std::size_t>(1, std::min(samples, g.samples)));
+  // A pass takes samples / stride samples: steps x that = share x iterations x samples.
   const double steps = std::round(kGradientWorkShare * double(std::max(em_iterations, 0)) *
-                                  double(samples) / per_pass);
+                                  double(detail::subsample_stride(samples, g.samples)));
   g.steps = int(std::clamp(steps, double(kMinGradientSteps), double(kMaxGradientSteps)));
   return g;
 }
@@ -171,7 +171,7 @@ PredictionRefinement refine_for_prediction(const SampleSet& samples, ProductMixt
   PredictionRefinement out;
   // A systematic subsample of about kRefitSamples samples: the problem has 3 M unknowns, and
   // the sums over every image of a large tile would cost more than EM's iterations.
-  const std::size_t stride = std::max<std::size_t>(1, samples.size() / kRefitSamples);
+  const std::size_t stride = detail::subsample_stride(samples.size(), kRefitSamples);
   const ColourNormalEquations eq = colour_normal_equations(samples, mix, threads, stride);
   out.samples = eq.samples;
   const ColourRefit colour = refit_colour_means(eq, mix);

@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <limits>
 #include <type_traits>
 #include <vector>
@@ -34,12 +35,28 @@ Real exp_of(Real x) {
 // at hand.
 template <class Real>
 struct PassSums {
-  std::vector<Real> light, view, colour, pixel, w;
+  std::vector<Real> light, view, colour, pixel;
   std::vector<double> position;
   double error = 0.0;
   std::size_t samples = 0;
   PassSums(std::size_t lights, std::size_t views, std::size_t m)
-      : light(lights * m), view(views * m), colour(3 * m), pixel(m), w(m), position(5 * m) {}
+      : light(lights * m),
+        view(views * m),
+        colour(3 * m),
+        pixel(m),
+        position(5 * m),
+        w_storage_(m + kAlign / sizeof(Real)) {}
+  // The weights of the sample at hand, at an address aligned to kAlign bytes in every
+  // thread: the vectorised sums over them then run in the same order whichever thread takes a
+  // chunk (a loop peeled to an alignment would otherwise depend on the buffer's address).
+  Real* w() {
+    const auto at = reinterpret_cast<std::uintptr_t>(w_storage_.data());
+    return w_storage_.data() + ((kAlign - at % kAlign) % kAlign) / sizeof(Real);
+  }
+
+ private:
+  static constexpr std::size_t kAlign = 64;
+  std::vector<Real> w_storage_;
 };
 
 // A gradient pass of the prediction's squared error (prediction_gradient, model/refine.hpp)
@@ -100,7 +117,7 @@ class GradientPass {
     const std::size_t m = m_;
     const Real *tp = &pixel_[p * m], *tl = &light_[l * m], *tv = &view_[v * m];
     const Real *mu0 = &colour_[0], *mu1 = &colour_[m], *mu2 = &colour_[2 * m];
-    Real* w = acc.w.data();
+    Real* w = acc.w();
 #pragma omp simd
     for (std::size_t k = 0; k < m; ++k) w[k] = tp[k] + tl[k] + tv[k];
     Real top = -std::numeric_limits<Real>::infinity();
@@ -300,6 +317,15 @@ void unpack(const std::vector<double>& th, ProductMixture& mix, const detail::Pe
   }
 }
 
+// The log variances of the parameter vector set to those of the mixture unpacked from it,
+// which bounded_variance kept within EM's floor and ceiling: a step past a bound is projected
+// back onto it, so that the next step away from the bound moves the variance at once.
+void keep_within_bounds(std::vector<double>& theta, const ProductMixture& mix) {
+  for (std::size_t k = 0; k < mix.size(); ++k)
+    for (int n = 0; n < kInputs; ++n)
+      theta[k * kParams + 1 + kVariables + std::size_t(n)] = std::log(mix.var[k][std::size_t(n)]);
+}
+
 // One round of Adam steps (Kingma & Ba 2015: beta 0.9, 0.999, bias-corrected moments) from
 // `mix` at a constant rate, warmed up linearly over the first kWarmUpSteps steps. The steps
 // go on from the parameters they reached, also after a step that raised the error (on a
@@ -337,6 +363,7 @@ double adam_round(const SampleSet& samples, ProductMixture& mix, int threads, st
       theta[i] -= rate * (m1[i] / c1) / (std::sqrt(m2[i] / c2) + 1e-300);
     }
     unpack(theta, mix, periods);
+    keep_within_bounds(theta, mix);
   }
   mix = std::move(best);
   return best_error;
@@ -349,8 +376,7 @@ namespace detail {
 double gradient_rounds(const SampleSet& samples, ProductMixture& mix, int threads,
                        std::size_t stride, const GradientConfig& config, double error,
                        int& passes) {
-  const std::size_t pass_stride =
-      std::max<std::size_t>(1, samples.size() / std::max<std::size_t>(config.samples, 1));
+  const std::size_t pass_stride = detail::subsample_stride(samples.size(), config.samples);
   for (int r = 0; r < config.rounds; ++r) {
     ProductMixture trial = mix;
     adam_round(samples, trial, threads, pass_stride, config, r + 1, passes);

@@ -114,9 +114,10 @@ struct GradientConfig {
 // The gradient passes a fit can afford beside EM's `em_iterations` iterations over `samples`
 // samples, within twice the time of EM alone: steps whose work (steps x the samples of a
 // pass) is kGradientWorkShare of EM's (iterations x samples), between kMinGradientSteps and
-// kMaxGradientSteps. A sample of a pass costs about four times a sample of an EM iteration
-// (the gradient's sums beside the weights), so the passes take about 0.4 of EM's time; the
-// two colour refits and the last E pass add a few per cent (docs/ALGORITHM.md).
+// kMaxGradientSteps. In a whole fit a sample of a pass costs about four times a sample of an
+// EM iteration (EM skips the negligible components of whole groups of samples; a pass weighs
+// them all), so the passes take about 0.4 of EM's time; the two colour refits and the last E
+// pass add a few per cent (docs/ALGORITHM.md).
 constexpr double kGradientWorkShare = 0.10;
 constexpr int kMinGradientSteps = 10, kMaxGradientSteps = 1000;
 GradientConfig affordable_gradient(std::size_t samples, int em_iterations);
