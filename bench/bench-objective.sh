@@ -47,14 +47,15 @@ for objective in likelihood prediction; do
   start=$(date +%s.%N)
   "$btfgmm" fit "$btf" -M "$components" --iterations "$iterations" --seed 1 \
     --objective "$objective" -o "$model" --overwrite -q
-  seconds=$(awk -v a="$start" -v b="$(date +%s.%N)" 'BEGIN { printf "%.1f", b - a }')
+  seconds=$(awk -v a="$start" -v b="$(date +%s.%N)" 'BEGIN { printf "%.3f", b - a }')
   [ -z "$first" ] && first=$seconds
   "$btfgmm" compare "$btf" "$model" --json -q > "$work/$objective.json"
   /usr/bin/python3 - "$work/$objective.json" "$objective" "$seconds" "$first" "$load" <<'EOF'
 import json, sys
 c = json.load(open(sys.argv[1]))
 seconds, first = float(sys.argv[3]), float(sys.argv[4])
-print(f"{sys.argv[2]:<11} {seconds:9.1f} {seconds / first:7.2f} {c['file_bytes']:>11,} "
+ratio = seconds / first if first > 0 else float("nan")  # a tiny fit may take under a millisecond
+print(f"{sys.argv[2]:<11} {seconds:9.1f} {ratio:7.2f} {c['file_bytes']:>11,} "
       f"{'1:%.1f' % c['compression_ratio_file']:>11} {c['psnr_db']:8.2f} {c['ssim']:7.3f}  {sys.argv[5]}")
 EOF
 done

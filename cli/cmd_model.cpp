@@ -41,6 +41,7 @@ struct FitOptions {
   std::size_t components = 0, clusters = 0, degree = 0;  // 0: the method's default
   int iterations = 0;                                    // 0: the method's default
   int levels = 0;                                        // 0: the method's default
+  int refine_steps = 0;                                  // 0: as many as the fit affords
   double epsilon = 0.0;
   std::uint64_t seed = 1;
   int threads = 0;
@@ -96,6 +97,7 @@ btfgmm::FitOptions library_options(const FitOptions& o) {
   f.threads = o.threads;
   f.precision = o.precision;
   f.objective = o.objective;
+  f.refine_steps = o.refine_steps;
   return f;
 }
 
@@ -153,6 +155,7 @@ btfgmm::FitRequest fit_request(const FitOptions& o) {
                                                     : new_fit_request(o);
   if (r.resume && o.given.count("--iterations")) r.config.em.max_iterations = o.iterations;
   if (r.resume && o.given.count("--epsilon")) r.config.em.epsilon = o.epsilon;
+  btfgmm::set_refine_steps(r.config, o.refine_steps);  // resumed or continued: the objective's
   r.checkpoint_every = o.checkpoint_every;
   r.config.em.threads = o.threads;
   r.config.em.stop = &g_stop;
@@ -234,6 +237,14 @@ void print_written(const std::string& out, const btfgmm::FitOutcome& fit, const 
              out, model.mixture.size(), model.settings.dropped, model.settings.log_likelihood, last,
              fit.file_bytes, model.compression_ratio_paper(),
              model.compression_ratio_file(fit.file_bytes), time);
+  if (const auto& r = fit.refinement) {
+    fmt::print(stderr,
+               "refined for the prediction in {} Adam steps: RMSE {:.2f} levels after EM, {:.2f} "
+               "after the colour refit, {:.2f} in the model (on {} samples)\n",
+               r->steps, btfgmm::prediction_rmse(r->error_em, r->samples),
+               btfgmm::prediction_rmse(r->error_colour, r->samples),
+               btfgmm::prediction_rmse(r->error_final, r->samples), r->samples);
+  }
 }
 
 // ---- fit --method: any other method ------------------------------------------------------
@@ -242,8 +253,8 @@ void print_written(const std::string& out, const btfgmm::FitOutcome& fit, const 
 void check_method_options(const FitOptions& o) {
   refuse_options(o,
                  {"--epsilon", "--checkpoint", "--checkpoint-every", "--resume", "--continue",
-                  "--log", "--objective"},
-                 fmt::format("to --method {}: they belong to the Gaussian mixture's EM "
+                  "--log", "--objective", "--refine-steps"},
+                 fmt::format("to --method {}: they belong to the Gaussian mixture's fit "
                              "(--method gm) only",
                              o.method));
   if (o.input.empty() || o.out.empty())
@@ -345,6 +356,15 @@ void run_mixture_fit(const FitOptions& options,
     std::exit(130);
   }
   if (!o.quiet) print_written(r.output, fit, start);
+  if (fit.refinement && fit.refinement->stopped) {
+    // The model is written, but with fewer steps than the fit affords: said even with --quiet.
+    fmt::print(stderr,
+               "interrupted during the refinement for the prediction after step {} of {}: {} "
+               "holds the lowest error met so far, and is complete; fit again for the whole "
+               "refinement\n",
+               fit.refinement->steps, fit.refinement->steps_planned, r.output);
+    std::exit(130);
+  }
 }
 
 // With --budget or --ratio, the method and size are chosen (cmd_budget.cpp): the options that
@@ -356,8 +376,8 @@ void run_fit_within_budget(const FitOptions& o) {
                 "--budget and --ratio both set the budget; give one of them");
   refuse_options(o,
                  {"--method", "--components", "--clusters", "--degree", "--precision",
-                  "--objective", "--epsilon", "--levels", "--checkpoint", "--checkpoint-every",
-                  "--resume", "--continue", "--log"},
+                  "--objective", "--refine-steps", "--epsilon", "--levels", "--checkpoint",
+                  "--checkpoint-every", "--resume", "--continue", "--log"},
                  fmt::format("with {}: it chooses the method and size itself (each method's "
                              "ladder of sizes, stored as sweep stores them)",
                              budget));
@@ -504,6 +524,11 @@ void register_fit(CLI::App& app, Commands& commands) {
                 "error, Eq. 8-11: the colour means by least squares, gradient steps on every "
                 "parameter, the colour means again) or likelihood (the paper's EM alone, "
                 "exactly)");
+  f->add_option("--refine-steps", fit->refine_steps,
+                "gm, --objective prediction: Adam steps of the refinement (default: as many as "
+                "keep the fit within twice EM's time, 408 at the paper's setting; more keep "
+                "paying, docs/ALGORITHM.md)")
+      ->check(CLI::Range(1, btfgmm::kMaxRefineSteps));
   f->add_option("--threads", fit->threads,
                 "Threads (0: all cores; the model does not depend "
                 "on it)")

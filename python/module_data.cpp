@@ -158,7 +158,7 @@ Model fit(const py::object& data, const std::string& method, const py::object& t
           std::size_t components, std::size_t clusters, std::size_t degree, int iterations,
           std::optional<double> epsilon, std::uint64_t seed, int threads,
           std::optional<std::string> precision, std::optional<std::string> objective, int levels,
-          const py::object& progress) {
+          int refine_steps, const py::object& progress) {
   const DataArg d = data_arg(data, "fit");
   if (d.tile && !tile.is_none())
     throw Error(Error::Kind::kArgument,
@@ -176,6 +176,7 @@ Model fit(const py::object& data, const std::string& method, const py::object& t
   o.precision = precision.value_or("");
   o.objective = objective.value_or("");
   o.levels = levels;
+  o.refine_steps = refine_steps;
   const std::string text = tile_text(tile);
   FitWatch watch(progress);
   FitProgress p;
@@ -228,7 +229,8 @@ void bind_fit(py::module_& m) {
         py::arg("tile") = py::none(), py::arg("components") = 0, py::arg("clusters") = 0,
         py::arg("degree") = 0, py::arg("iterations") = 0, py::arg("epsilon") = py::none(),
         py::arg("seed") = 1, py::arg("threads") = 0, py::arg("precision") = py::none(),
-        py::arg("objective") = py::none(), py::arg("levels") = 0, py::arg("progress") = py::none(),
+        py::arg("objective") = py::none(), py::arg("levels") = 0, py::arg("refine_steps") = 0,
+        py::arg("progress") = py::none(),
         "Fits a model to a BTF (a path, or a Btf from read_btf: its tile) with the options "
         "and defaults of `btfgmm fit` (0 or None: the method's default); the same data, "
         "options and seed give the model `btfgmm fit` writes. progress(fraction, stage) is "

@@ -66,6 +66,16 @@ TEST_F(Cli, GenerateInfoFitInfoEvalDecode) {
   ASSERT_EQ(r.status, 0) << r.out;
   EXPECT_NE(r.out.find("iteration   3/3"), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("ETA"), std::string::npos) << r.out;
+  // The refinement for the prediction: its steps, then what it gained.
+  EXPECT_NE(r.out.find("refining for the prediction: step   10/10"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("refined for the prediction in 10 Adam steps: RMSE "), std::string::npos)
+      << r.out;
+  r = run("fit " + p("btf") +
+          " --tile 0,0,6,6 -M 5 --iterations 3 --seed 2 --refine-steps 14 "
+          "-o " +
+          p("longer.btfgmm"));
+  ASSERT_EQ(r.status, 0) << r.out;
+  EXPECT_NE(r.out.find("refined for the prediction in 14 Adam steps"), std::string::npos) << r.out;
   r = run("info --json " + p("m.btfgmm"));
   ASSERT_EQ(r.status, 0) << r.out;
   j = nlohmann::json::parse(r.out);
@@ -114,6 +124,15 @@ TEST_F(Cli, ErrorsNameTheProblemAndExitNonZero) {
   EXPECT_NE(r.out.find("does not exist"), std::string::npos) << r.out;
   r = run("fit " + p("btf") + " -M 0 -o " + p("m.btfgmm"));
   EXPECT_NE(r.status, 0);
+  r = run("fit " + p("btf") + " --objective likelihood --refine-steps 50 -o " + p("m.btfgmm"));
+  EXPECT_EQ(r.status, 1);
+  EXPECT_NE(r.out.find("--refine-steps applies to the objective prediction only"),
+            std::string::npos)
+      << r.out;
+  r = run("fit " + p("btf") + " --method pca-btf --refine-steps 50 -o " + p("m.btfgmm"));
+  EXPECT_EQ(r.status, 1);
+  EXPECT_NE(r.out.find("--refine-steps cannot apply to --method pca-btf"), std::string::npos)
+      << r.out;
   r = run("fit " + p("btf") + " --tile 4,4,8,8 -o " + p("m.btfgmm"));
   EXPECT_EQ(r.status, 1);
   EXPECT_NE(r.out.find("tile"), std::string::npos) << r.out;

@@ -86,6 +86,10 @@ TEST(FitOptions, DefaultsAreTheCommands) {
   EXPECT_EQ(r.config.em.epsilon, 0.0);
   EXPECT_EQ(r.precision, Precision::kCompact);
   EXPECT_EQ(r.config.objective, FitObjective::kPrediction);
+  EXPECT_EQ(r.config.refinement_steps, 0);  // as many as the fit affords
+  FitOptions steps;
+  steps.refine_steps = 1000;
+  EXPECT_EQ(mixture_fit_request(steps, "in", "out").config.refinement_steps, 1000);
   FitOptions f16;
   f16.precision = "f16";
   EXPECT_EQ(mixture_fit_request(f16, "in", "out").precision, Precision::kF16);
@@ -93,25 +97,35 @@ TEST(FitOptions, DefaultsAreTheCommands) {
   EXPECT_EQ(method_settings({}, find_method("pca-btf")).components, 0u);  // the method's own
 }
 
+// The error of the mixture's fit request for `o`, and of `method`'s settings.
+std::string mixture_error(const FitOptions& o) {
+  return test::error_of([&] { mixture_fit_request(o, "in", "out"); });
+}
+std::string settings_error(const FitOptions& o, const char* method) {
+  return test::error_of([&] { method_settings(o, find_method(method)); });
+}
+
 TEST(FitOptions, OptionsThatCannotApplyAreErrors) {
+  const auto has = [](const std::string& error, const char* text) {
+    return error.find(text) != std::string::npos;
+  };
   FitOptions o;
   o.precision = "f8";
-  EXPECT_NE(test::error_of([&] {
-              mixture_fit_request(o, "in", "out");
-            }).find("--precision 'f8': the Gaussian mixture stores compact"),
-            std::string::npos);
+  EXPECT_TRUE(has(mixture_error(o), "--precision 'f8': the Gaussian mixture stores compact"));
   o = {};
   o.clusters = 4;
-  EXPECT_NE(test::error_of([&] {
-              mixture_fit_request(o, "in", "out");
-            }).find("--clusters applies to --method lpca only"),
-            std::string::npos);
+  EXPECT_TRUE(has(mixture_error(o), "--clusters applies to --method lpca only"));
   o = {};
   o.epsilon = 0.01;
-  EXPECT_NE(test::error_of([&] {
-              method_settings(o, find_method("lpca"));
-            }).find("--epsilon cannot apply to --method lpca"),
-            std::string::npos);
+  EXPECT_TRUE(has(settings_error(o, "lpca"), "--epsilon cannot apply to --method lpca"));
+  o = {};
+  o.refine_steps = 50;
+  EXPECT_TRUE(has(settings_error(o, "pca-btf"), "--refine-steps cannot apply to --method pca-btf"));
+  o.objective = "likelihood";
+  EXPECT_TRUE(has(mixture_error(o), "--refine-steps applies to the objective prediction only"));
+  o = {};
+  o.refine_steps = -3;
+  EXPECT_TRUE(has(mixture_error(o), "--refine-steps -3: give 1 to 100000 Adam steps"));
 }
 
 TEST(FitOptions, HemisphereDirectionsWrapPhiAndRefuseThetaOffTheHemisphere) {

@@ -290,6 +290,53 @@ TEST_F(ProvenanceFit, AFitRecordsItsDataAndItsLog) {
   EXPECT_EQ(f.model.provenance.data.content_hash, p.data.content_hash);
 }
 
+// A fit for the prediction records its refinement (steps and the RMSE before and after) in
+// its settings; a stop during the refinement (none during EM) ends it early, and the model
+// is still written, complete, with the steps it took on record.
+TEST_F(ProvenanceFit, AFitForThePredictionRecordsItsRefinement) {
+  FitRequest r = request(3, "m.btfgmm");
+  r.config.objective = FitObjective::kPrediction;
+  const FitOutcome f = run_fit(r);
+  ASSERT_TRUE(f.refinement);
+  EXPECT_FALSE(f.refinement->stopped);
+  EXPECT_EQ(f.refinement->steps, kMinGradientSteps);  // a few samples: the fewest steps
+  EXPECT_LT(f.refinement->error_final, f.refinement->error_em);
+  const auto& settings = load_model(dir_ / "m.btfgmm").provenance.fit.settings;
+  ASSERT_EQ(settings.back().first, "refinement");
+  EXPECT_EQ(settings.back().second.rfind("10 Adam steps; RMSE ", 0), 0u) << settings.back().second;
+
+  std::atomic<bool> stop{false};
+  r.output = (dir_ / "stopped.btfgmm").string();
+  r.config.em.stop = &stop;
+  FitObserver observer;
+  observer.refinement = [&stop](const GradientProgress& p) {
+    if (p.step == 4) stop.store(true);
+  };
+  const FitOutcome s = run_fit(r, observer);
+  EXPECT_FALSE(s.interrupted);
+  ASSERT_TRUE(s.refinement);
+  EXPECT_TRUE(s.refinement->stopped);
+  EXPECT_EQ(s.refinement->steps, 4);
+  EXPECT_LE(s.refinement->error_final, s.refinement->error_colour);
+  const BtfModel m = load_model(r.output);
+  EXPECT_EQ(m.provenance.fit.iterations.size(), 3u);
+  EXPECT_EQ(m.provenance.fit.settings.back().second.rfind("4 of 10 Adam steps (stopped); RMSE ", 0),
+            0u)
+      << m.provenance.fit.settings.back().second;
+  // Steps asked for (fit --refine-steps) instead of those the fit affords.
+  r.config.em.stop = nullptr;
+  r.config.refinement_steps = 17;
+  r.output = (dir_ / "longer.btfgmm").string();
+  const FitOutcome longer = run_fit(r);
+  ASSERT_TRUE(longer.refinement);
+  EXPECT_EQ(longer.refinement->steps, 17);
+  EXPECT_LE(longer.refinement->error_final, longer.refinement->error_colour);
+  EXPECT_EQ(load_model(r.output).provenance.fit.settings.back().second.rfind("17 Adam steps;", 0),
+            0u);
+  // EM alone records no refinement.
+  EXPECT_FALSE(run_fit(request(3, "em.btfgmm")).refinement);
+}
+
 // An interrupted fit resumed with more iterations ends where one fit of that many does: the
 // same parameters, bit for bit, and the same log of L.
 TEST_F(ProvenanceFit, AResumeGoesOnToTheIterationsAskedFor) {

@@ -1,8 +1,9 @@
 // The gradient passes of the fit for the prediction (model/refine.hpp): the analytic gradient
 // of the prediction's squared error against finite differences, the refinement never raising
-// the error, and the same model bit for bit with one thread and with two.
+// the error, the same model bit for bit with one thread and with two, and a stop ending it.
 #include <gtest/gtest.h>
 
+#include <atomic>
 #include <cmath>
 #include <cstdio>
 
@@ -190,6 +191,36 @@ TEST(RefineGradient, FloatPassIsTheSameWithAnyNumberOfThreads) {
     EXPECT_EQ(one.mean, more.mean) << threads;
     EXPECT_EQ(one.log_var, more.log_var) << threads;
   }
+}
+
+// A stop set after step 5 ends the steps there: the refinement is that of 5 steps, bit for
+// bit (the same passes, the lowest error among them kept, the same colour refit), and says
+// it stopped.
+TEST(RefineGradient, StopEndsTheStepsWithTheBestMet) {
+  const SampleSet s = knit_samples(8);
+  const ProductMixture em = em_mixture(s, 5);
+  ProductMixture stopped = em, five = em;
+  std::atomic<bool> stop{false};
+  GradientConfig asked;
+  asked.steps = 50;
+  asked.stop = &stop;
+  asked.progress = [&stop](const GradientProgress& p) {
+    if (p.step == 5) stop.store(true);
+  };
+  const PredictionRefinement a = refine_for_prediction(s, stopped, 2, asked);
+  EXPECT_TRUE(a.stopped);
+  EXPECT_EQ(a.steps, 5);
+  EXPECT_EQ(a.steps_planned, 50);
+  EXPECT_LE(a.error_final, a.error_colour);
+  GradientConfig g;
+  g.steps = 5;
+  const PredictionRefinement b = refine_for_prediction(s, five, 2, g);
+  EXPECT_FALSE(b.stopped);
+  EXPECT_EQ(b.steps, 5);
+  EXPECT_EQ(a.error_final, b.error_final);
+  EXPECT_EQ(stopped.weight, five.weight);
+  EXPECT_EQ(stopped.mean, five.mean);
+  EXPECT_EQ(stopped.var, five.var);
 }
 
 // The steps a fit affords: kGradientWorkShare of EM's sample-iterations in passes of

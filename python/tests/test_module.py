@@ -235,3 +235,23 @@ def test_progress_and_stopping_a_fit(work):
         btfgmm.fit(work["btf"], tile=(0, 0, 6, 6), components=5, iterations=30, seed=2,
                    progress=progress)
     assert calls == [(1 / 30, "EM"), (2 / 30, "EM")]
+
+    # The refinement for the prediction reports its steps after EM's iterations, and Ctrl-C
+    # there stops it too: after the step under way, no later call.
+    stages = []
+    btfgmm.fit(work["btf"], tile=(0, 0, 6, 6), components=5, iterations=3, seed=2,
+               progress=lambda fraction, stage: stages.append((fraction, stage)))
+    assert [s for _, s in stages[:3]] == ["EM"] * 3
+    refinement = [f for f, s in stages[3:] if s == "refinement"]
+    assert len(refinement) == len(stages) - 3 and refinement[0] == 0 and refinement[-1] == 1
+    calls = []
+
+    def stop_in_refinement(fraction, stage):
+        calls.append(stage)
+        if stage == "refinement" and fraction > 0.2:
+            raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        btfgmm.fit(work["btf"], tile=(0, 0, 6, 6), components=5, iterations=3, seed=2,
+                   progress=stop_in_refinement)
+    assert calls[:3] == ["EM"] * 3 and 3 < len(calls) < len(stages)

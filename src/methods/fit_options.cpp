@@ -3,6 +3,7 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <utility>
 
 #include "btfgmm/core/error.hpp"
@@ -34,12 +35,29 @@ std::unique_ptr<Representation> fit_mixture(const FitOptions& o, const std::stri
   FitObserver observer;
   observer.started = progress.started;
   observer.iteration = progress.iteration;
+  if (progress.progress)
+    observer.refinement = [&progress](const GradientProgress& g) {
+      progress.progress(double(g.step) / double(std::max(1, g.steps)), "refinement");
+    };
   FitOutcome fit = fit_in_memory(r, observer);
   if (fit.interrupted) return nullptr;
   return std::make_unique<GaussianMixture>(std::move(fit.model));
 }
 
 }  // namespace
+
+void set_refine_steps(FitConfig& config, int steps) {
+  if (steps < 0 || steps > kMaxRefineSteps)
+    throw Error(Error::Kind::kArgument,
+                fmt::format("--refine-steps {}: give 1 to {} Adam steps, or leave it out for as "
+                            "many as the fit affords",
+                            steps, kMaxRefineSteps));
+  if (steps > 0 && config.objective != FitObjective::kPrediction)
+    throw Error(Error::Kind::kArgument,
+                "--refine-steps applies to the objective prediction only (the paper's EM, "
+                "--objective likelihood, refines nothing); leave one of them out");
+  config.refinement_steps = steps;
+}
 
 FitRequest mixture_fit_request(const FitOptions& o, const std::string& input,
                                const std::string& output) {
@@ -62,16 +80,20 @@ FitRequest mixture_fit_request(const FitOptions& o, const std::string& input,
   r.config.em.threads = o.threads;
   r.config.objective =
       parse_objective(o.objective.empty() ? "prediction" : o.objective, "--objective");
+  set_refine_steps(r.config, o.refine_steps);
   r.precision = mixture_precision(o.precision);
   return r;
 }
 
 MethodSettings method_settings(const FitOptions& o, const MethodInfo& method) {
-  if (o.epsilon || !o.objective.empty())
+  if (o.epsilon || !o.objective.empty() || o.refine_steps != 0)
     throw Error(Error::Kind::kArgument,
                 fmt::format("{} cannot apply to --method {}: it belongs to the Gaussian "
-                            "mixture's EM (--method gm) only; leave it out",
-                            o.epsilon ? "--epsilon" : "--objective", method.name));
+                            "mixture's fit (--method gm) only; leave it out",
+                            o.epsilon             ? "--epsilon"
+                            : o.refine_steps != 0 ? "--refine-steps"
+                                                  : "--objective",
+                            method.name));
   if (o.levels != 0 && !method.pyramid)
     throw Error(Error::Kind::kArgument,
                 fmt::format("--levels {} cannot apply to --method {}: it has no pyramid (--levels "

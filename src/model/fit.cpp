@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <memory>
+#include <optional>
 #include <string>
 #include <system_error>
 #include <utility>
@@ -188,6 +189,18 @@ void record_provenance(const FitRequest& r, const FitCheckpoint& job, DataFinger
   p.fit.seconds = model.settings.seconds + (r.resume ? r.resume->seconds_before : 0.0);
 }
 
+// The refinement's record: "600 Adam steps; RMSE 9.71 after EM, 8.02 refined (levels, on
+// 250000 samples)", its steps "212 of 600 Adam steps (stopped)" when a stop ended it early.
+std::pair<std::string, std::string> refinement_record(const PredictionRefinement& r) {
+  const std::string steps =
+      r.stopped ? fmt::format("{} of {} Adam steps (stopped)", r.steps, r.steps_planned)
+                : fmt::format("{} Adam steps", r.steps);
+  return {"refinement", fmt::format("{}; RMSE {:.2f} after EM, {:.2f} refined (levels, on {} "
+                                    "samples)",
+                                    steps, prediction_rmse(r.error_em, r.samples),
+                                    prediction_rmse(r.error_final, r.samples), r.samples)};
+}
+
 // Finished: the model file, then the checkpoint goes (the model holds the fit's result).
 void save_finished(const FitRequest& r, FitOutcome& out) {
   if (!writes_files(r)) return;
@@ -207,7 +220,8 @@ namespace {
 BtfModel fit_samples(const SampleSet& samples, const FitTile& tile, const FitConfig& config,
                      const EmCallback& progress, const FitState* resume,
                      const EmStateCallback& after_iteration, FitState* state, Clock::time_point t0,
-                     const GradientCallback& refinement = {}) {
+                     const GradientCallback& refinement = {},
+                     std::optional<PredictionRefinement>* refined = nullptr) {
   ProductMixture mix =
       resume ? resume->mixture : initial_mixture(samples, config.components, config.seed);
   const EmResult em = fit_em(samples, mix, config.em, progress, resume ? &resume->result : nullptr,
@@ -218,8 +232,12 @@ BtfModel fit_samples(const SampleSet& samples, const FitTile& tile, const FitCon
   double final_l = em.final_log_likelihood;
   if (config.objective == FitObjective::kPrediction) {
     GradientConfig gradient = affordable_gradient(samples.size(), em.iterations);
+    if (config.refinement_steps > 0) gradient.steps = config.refinement_steps;
     gradient.progress = refinement;
-    refine_for_prediction(samples, mix, config.em.threads, gradient);
+    gradient.stop = config.em.stop;
+    const PredictionRefinement done =
+        refine_for_prediction(samples, mix, config.em.threads, gradient);
+    if (refined) *refined = done;
     final_l = mean_log_likelihood(samples, mix, config.em.threads);
   }
   BtfModel m = model_of(tile, samples, config, std::move(mix), em);
@@ -323,14 +341,18 @@ FitOutcome fit_in_memory(const FitRequest& request, const FitObserver& observer)
   }
   if (observer.started) observer.started(tile);
   FitState state;
-  BtfModel model = fit_samples(loaded.samples, tile, request.config, observer.iteration,
-                               request.resume ? &request.resume->checkpoint.state : nullptr,
-                               periodic_checkpoints(request, job), &state, t0, observer.refinement);
+  std::optional<PredictionRefinement> refined;
+  BtfModel model =
+      fit_samples(loaded.samples, tile, request.config, observer.iteration,
+                  request.resume ? &request.resume->checkpoint.state : nullptr,
+                  periodic_checkpoints(request, job), &state, t0, observer.refinement, &refined);
   if (state.result.interrupted) return save_interrupted(request, job, std::move(state));
   record_provenance(request, job, loaded.data, model);
+  if (refined) model.provenance.fit.settings.push_back(refinement_record(*refined));
   model.precision = request.precision;
   FitOutcome out;
   out.model = std::move(model);
+  out.refinement = refined;
   return out;
 }
 

@@ -103,6 +103,10 @@ ColourNormalEquations colour_normal_equations(const SampleSet& samples, const Pr
   return eq;
 }
 
+double prediction_rmse(double squared_error, std::size_t samples) {
+  return std::sqrt(squared_error / double(3 * std::max<std::size_t>(samples, 1)));
+}
+
 double prediction_squared_error(const ColourNormalEquations& eq, const ProductMixture& mix) {
   const std::size_t m = eq.components;
   double total = 0.0;
@@ -174,11 +178,12 @@ PredictionRefinement refine_for_prediction(const SampleSet& samples, ProductMixt
   const std::size_t stride = detail::subsample_stride(samples.size(), kRefitSamples);
   const ColourNormalEquations eq = colour_normal_equations(samples, mix, threads, stride);
   out.samples = eq.samples;
+  out.steps_planned = gradient.rounds * gradient.steps;
   const ColourRefit colour = refit_colour_means(eq, mix);
   out.error_em = colour.error_before;
   out.error_colour = colour.error_after;
-  out.error_final = detail::gradient_rounds(samples, mix, threads, stride, gradient,
-                                            colour.error_after, out.passes);
+  out.error_final =
+      detail::gradient_rounds(samples, mix, threads, stride, gradient, colour.error_after, out);
   return out;
 }
 

@@ -332,8 +332,9 @@ void keep_within_bounds(std::vector<double>& theta, const ProductMixture& mix) {
 // subsample the error is noisy: undoing such steps and restarting the moments stalled the
 // descent, docs/ALGORITHM.md); the parameters of the lowest error met are the round's result.
 // Leaves them in `mix` and returns their error.
+// Stops after the step where config.stop is set (out.stopped).
 double adam_round(const SampleSet& samples, ProductMixture& mix, int threads, std::size_t stride,
-                  const GradientConfig& config, int round, int& passes) {
+                  const GradientConfig& config, int round, PredictionRefinement& out) {
   constexpr int kWarmUpSteps = 20;
   const detail::Periods periods =
       detail::variable_periods({double(samples.width), double(samples.height)});
@@ -343,15 +344,19 @@ double adam_round(const SampleSet& samples, ProductMixture& mix, int threads, st
   GradientPass<float> pass(samples, mix.size(), threads, stride);
   for (int t = 1; t <= config.steps + 1; ++t) {
     const PredictionGradient g = pass(mix);
-    ++passes;
+    ++out.passes;
     if (g.error < best_error) {
       best = mix;
       best_error = g.error;
     }
     if (config.progress)
-      config.progress({round, t - 1, config.steps,
-                       std::sqrt(best_error / double(3 * std::max<std::size_t>(g.samples, 1)))});
+      config.progress({round, t - 1, config.steps, prediction_rmse(best_error, g.samples)});
     if (t > config.steps) break;
+    if (config.stop && config.stop->load()) {
+      out.stopped = true;
+      break;
+    }
+    ++out.steps;
     const std::vector<double> grad = pack(g);
     const double warm_up = std::min(1.0, double(t) / kWarmUpSteps);
     const double c1 = 1.0 - std::pow(0.9, t), c2 = 1.0 - std::pow(0.999, t);
@@ -375,16 +380,17 @@ namespace detail {
 
 double gradient_rounds(const SampleSet& samples, ProductMixture& mix, int threads,
                        std::size_t stride, const GradientConfig& config, double error,
-                       int& passes) {
+                       PredictionRefinement& out) {
   const std::size_t pass_stride = detail::subsample_stride(samples.size(), config.samples);
   for (int r = 0; r < config.rounds; ++r) {
     ProductMixture trial = mix;
-    adam_round(samples, trial, threads, pass_stride, config, r + 1, passes);
+    adam_round(samples, trial, threads, pass_stride, config, r + 1, out);
     const ColourRefit refit =
         refit_colour_means(colour_normal_equations(samples, trial, threads, stride), trial);
     if (!(refit.error_after < error)) break;
     error = refit.error_after;
     mix = std::move(trial);
+    if (out.stopped) break;
   }
   return error;
 }

@@ -18,8 +18,9 @@ inline std::size_t subsample_stride(std::size_t samples, std::size_t wanted) {
 // From a mixture whose colour means were just refitted (prediction error `error` on the
 // samples of `stride`): config.rounds rounds of Adam steps on every parameter, each closed by
 // the colour refit and kept only where it lowers the error. Returns the lowest error reached,
-// its mixture in `mix`; adds the gradient passes made to `passes`.
+// its mixture in `mix`; adds the passes and steps made to `out` and sets its `stopped`.
 double gradient_rounds(const SampleSet& samples, ProductMixture& mix, int threads,
-                       std::size_t stride, const GradientConfig& config, double error, int& passes);
+                       std::size_t stride, const GradientConfig& config, double error,
+                       PredictionRefinement& out);
 
 }  // namespace btfgmm::detail

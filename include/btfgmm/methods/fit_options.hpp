@@ -33,17 +33,25 @@ struct FitOptions {
   std::string precision;  // gm: "compact" (default; "q8" too), "f32" or "f16"; others: "q8"
                           // (default), "f32", "f16"
   std::string objective;  // gm: "prediction" (default) or "likelihood" (the paper's EM alone)
+  int refine_steps = 0;   // gm, prediction: the refinement's Adam steps (0: as many as it affords)
 };
+constexpr int kMaxRefineSteps = 100000;
+
+// config.refinement_steps = steps (0: as many as the fit affords). Throws Error(kArgument)
+// for steps outside 0..kMaxRefineSteps, and for steps with an objective other than kPrediction.
+void set_refine_steps(FitConfig& config, int steps);
 
 // The mixture's fit job from `input` to `output` (the tile, checkpoints and the stop flag are
 // the caller's to set): M = 600, 40 iterations, the prediction objective and the compact file
 // unless given. Throws Error(kArgument) for a precision other than compact (q8), f32 or f16, an
-// unknown objective, and for clusters, degree or levels (other methods' sizes).
+// unknown objective, refinement steps with the likelihood objective, and for clusters, degree
+// or levels (other methods' sizes).
 FitRequest mixture_fit_request(const FitOptions& o, const std::string& input,
                                const std::string& output);
 
 // Another method's settings: the sizes as given, the method's own storage unless a precision
-// is given. Throws Error(kArgument) for an epsilon (the mixture's EM alone has one), levels
+// is given. Throws Error(kArgument) for an epsilon, an objective or refinement steps (the
+// mixture's alone), levels
 // for a method without a pyramid, and a precision that does not parse.
 MethodSettings method_settings(const FitOptions& o, const MethodInfo& method);
 
@@ -51,15 +59,17 @@ MethodSettings method_settings(const FitOptions& o, const MethodInfo& method);
 struct FitProgress {
   std::function<void(const FitTile& tile)> started;    // the tile is read; the fit starts
   std::function<void(const EmProgress& p)> iteration;  // the mixture: after each EM iteration
-  std::function<void(double fraction, std::string_view stage)> progress;  // the other methods
+  // The other methods; the mixture's refinement for the prediction ("refinement").
+  std::function<void(double fraction, std::string_view stage)> progress;
   const std::atomic<bool>* stop = nullptr;  // set: the fit stops (Error(kArgument), or null)
 };
 
 // Fits `o.method` to `tile` (empty: the whole image) of `source`, opened from `input`, and
 // records the model's provenance as `btfgmm fit` does: the same data, options and seed give
 // the model `btfgmm fit` writes, the provenance's times aside (docs/FORMAT.md). The mixture's
-// fit stopped by `progress.stop` returns null. Throws Error as the options, the loading and
-// the fit do.
+// fit stopped by `progress.stop` during EM returns null; during its refinement for the
+// prediction, the model of the lowest error met (complete). Throws Error as the options, the
+// loading and the fit do.
 std::unique_ptr<Representation> fit_representation(const FitOptions& o, const std::string& input,
                                                    std::shared_ptr<const BtfSource> source,
                                                    const Tile& tile,

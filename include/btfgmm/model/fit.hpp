@@ -26,9 +26,12 @@ struct FitConfig {
   std::uint64_t seed = 1;
   EmConfig em;
   // kLikelihood: the paper's EM alone; kPrediction: EM, then the mixture refined for the
-  // prediction's error (refine_for_prediction, model/refine.hpp). `btfgmm fit` asks for the
-  // latter unless --objective likelihood.
+  // prediction's error (refine_for_prediction, model/refine.hpp; em.stop ends its steps
+  // early). `btfgmm fit` asks for the latter unless --objective likelihood.
   FitObjective objective = FitObjective::kLikelihood;
+  // kPrediction: the refinement's Adam steps; 0: as many as the fit affords beside EM
+  // (affordable_gradient).
+  int refinement_steps = 0;
 };
 
 // Mean BRDF, samples, initialisation and EM on a BTF tile. With `resume`, EM continues from
@@ -120,6 +123,10 @@ struct FitOutcome {
   // fingerprint and the whole fit's log), and that file's size in bytes.
   BtfModel model;
   std::uint64_t file_bytes = 0;
+  // With the objective kPrediction, what the refinement did: its steps and errors, and
+  // whether config.em.stop ended it early (the model then holds the lowest error met, and is
+  // written as any finished fit's). Recorded in the provenance's settings as "refinement".
+  std::optional<PredictionRefinement> refinement;
 };
 
 // run_fit but for the model file: the finished model (its provenance recorded, its precision

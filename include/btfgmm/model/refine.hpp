@@ -4,6 +4,7 @@
 #pragma once
 
 #include <array>
+#include <atomic>
 #include <cstddef>
 #include <functional>
 #include <string_view>
@@ -43,6 +44,10 @@ struct ColourNormalEquations {
 // every stride-th pixel of every image.
 ColourNormalEquations colour_normal_equations(const SampleSet& samples, const ProductMixture& mix,
                                               int threads = 0, std::size_t stride = 1);
+
+// The RMSE (model units: levels) of a squared error summed over `samples` samples' three
+// channels.
+double prediction_rmse(double squared_error, std::size_t samples);
 
 // sum_c E_c of the mixture's colour means (model units squared).
 double prediction_squared_error(const ColourNormalEquations& eq, const ProductMixture& mix);
@@ -109,6 +114,10 @@ struct GradientConfig {
   double colour_rate = 2.0;
   std::size_t samples = 40000;
   GradientCallback progress;  // after every step (may be empty)
+  // Checked after every step: when set, the steps end there, the parameters of the lowest
+  // error met are kept and closed by the colour refit as after the last step
+  // (PredictionRefinement::stopped). Null: never.
+  const std::atomic<bool>* stop = nullptr;
 };
 
 // The gradient passes a fit can afford beside EM's `em_iterations` iterations over `samples`
@@ -129,7 +138,10 @@ struct PredictionRefinement {
   double error_colour = 0.0;  // after the colour means' refit
   double error_final = 0.0;   // after the gradient passes and the last colour refit
   int passes = 0;             // gradient passes (each one over the samples)
-  std::size_t samples = 0;
+  int steps = 0;              // Adam steps taken, every round's
+  int steps_planned = 0;      // rounds x steps asked for
+  bool stopped = false;       // ended early by GradientConfig::stop
+  std::size_t samples = 0;    // of the colour refits' subsample, on which the errors are
 };
 
 // The mixture EM fitted, refined for the prediction's error (docs/ALGORITHM.md, "Fitting for
