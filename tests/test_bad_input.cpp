@@ -314,10 +314,11 @@ TEST_F(BadInput, ModelBitFlipped) {
 TEST_F(BadInput, ModelOfANewerVersion) {
   fit();
   std::string bytes = read_bytes(p("m.btfgmm"));
-  bytes[8] = 5;  // the format version, u32 little-endian at byte 8
+  const std::uint32_t newer = btfgmm::kModelFormatVersion + 1;
+  bytes[8] = char(newer);  // the format version, u32 little-endian at byte 8
   write_bytes(p("new.btfgmm"), bytes);
-  expect_model_refused(p("new.btfgmm"),
-                       {p("new.btfgmm"), "format version 5", "use a newer btfgmm"});
+  expect_model_refused(p("new.btfgmm"), {p("new.btfgmm"), "format version " + std::to_string(newer),
+                                         "use a newer btfgmm"});
 }
 
 TEST_F(BadInput, ModelOfZeroBytes) {

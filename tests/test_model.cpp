@@ -437,7 +437,7 @@ TEST(ModelFile, EverySingleByteCorruptionIsRejected) {
 
 TEST(ModelFile, NewerVersionPngAndEmptyGiveTheirMessages) {
   auto bytes = serialize_model(two_component_model());
-  bytes[8] = 5;  // version 5, with a valid checksum
+  bytes[8] = kModelFormatVersion + 1;  // a newer version, with a valid checksum
   const auto crc = std::uint32_t(crc32(0L, bytes.data(), uInt(bytes.size() - 4)));
   std::memcpy(bytes.data() + bytes.size() - 4, &crc, 4);
   try {
@@ -457,7 +457,7 @@ TEST(ModelFile, NewerVersionPngAndEmptyGiveTheirMessages) {
 }
 
 // A model file of format version 1 committed in tests/data: it must keep loading and decoding
-// to the same numbers, with no provenance; written again (version 4) it holds the same payload
+// to the same numbers, with no provenance; written again (version 5) it holds the same payload
 // after its method tag and empty provenance, and reads back to the same model.
 TEST(ModelFile, GoldenVersion1FileKeepsDecoding) {
   const std::filesystem::path path = std::filesystem::path(BTFGMM_TEST_DATA) / "golden_v1.btfgmm";
@@ -474,7 +474,7 @@ TEST(ModelFile, GoldenVersion1FileKeepsDecoding) {
   EXPECT_EQ(mixture_payload(m), v1_payload);
   EXPECT_FALSE(m.provenance.recorded);
   const auto v3 = serialize_model(m);
-  EXPECT_EQ(v3[8], 4);
+  EXPECT_EQ(v3[8], kModelFormatVersion);
   EXPECT_EQ(serialize_model(deserialize_model(v3, "v3")), v3);
   EXPECT_EQ(std::vector<std::uint8_t>(v3.begin() + 34, v3.end() - 4), v1_payload);
   const Query queries[] = {{1.5, 2.25, {40, 90}, {0, 0}},

@@ -83,7 +83,7 @@ TEST(Provenance, TheContentHashIsFnv1aOfTheValuesBytes) {
 TEST(Provenance, RoundTripsThroughTheModelFile) {
   const BtfModel m = model_with_provenance();
   const auto bytes = serialize_model(m);
-  EXPECT_EQ(bytes[8], 4);
+  EXPECT_EQ(bytes[8], kModelFormatVersion);
   const BtfModel back = deserialize_model(bytes, "p.btfgmm");
   const Provenance& p = back.provenance;
   ASSERT_TRUE(p.recorded);
@@ -170,9 +170,9 @@ TEST(Provenance, OlderFilesReadWithNoneRecorded) {
   for (const char* method : {"pca-btf", "pca-rf", "lpca", "ptm-rf", "plm-rf"}) {
     const auto m = load_representation(data / (std::string("golden_v2_") + method + ".btfgmm"));
     EXPECT_FALSE(m->provenance().recorded) << method;
-    // Written again: version 3, an empty provenance.
+    // Written again: the current version, an empty provenance.
     const auto again = representation_file_bytes(*m);
-    EXPECT_EQ(again[8], 4);
+    EXPECT_EQ(again[8], kModelFormatVersion);
     EXPECT_FALSE(read_representation(again, "again")->provenance().recorded) << method;
   }
 }

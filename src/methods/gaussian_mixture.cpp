@@ -44,6 +44,10 @@ Btf GaussianMixture::decode(const DirectionSet& lights, const DirectionSet& view
   return btfgmm::decode(model_, lights, views, width, height, tolerance);
 }
 
+std::uint32_t GaussianMixture::file_flags() const {
+  return mixture_file_flags(model_);
+}
+
 std::vector<std::uint8_t> GaussianMixture::payload() const {
   return mixture_payload(model_);
 }

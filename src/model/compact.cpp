@@ -8,6 +8,8 @@
 
 #include <cmath>
 #include <cstdint>
+#include <span>
+#include <utility>
 #include <vector>
 
 #include "btfgmm/core/error.hpp"
@@ -97,37 +99,95 @@ ProductMixture components_of(const std::vector<Column>& cols, const CompactSteps
   return mix;
 }
 
-// The mean BRDF's codes, one column per channel, each value less the one before it along the
-// views (the first view of a light: less the first view of the light before).
-std::vector<Column> mean_brdf_codes(const BtfModel& m, double step) {
-  const std::size_t nl = m.lights.size(), nv = m.views.size();
-  std::vector<Column> cols(3, Column(nl * nv));
-  for (int c = 0; c < 3; ++c) {
-    std::int64_t row_first = 0, prev = 0;
-    for (std::size_t l = 0; l < nl; ++l)
-      for (std::size_t v = 0; v < nv; ++v) {
-        const std::int64_t q = code_of(double(m.mean_brdf[(l * nv + v) * 3 + c]), step);
-        cols[c][l * nv + v] = q - (v == 0 ? row_first : prev);
-        if (v == 0) row_first = q;
-        prev = q;
-      }
+// The mean BRDF's integer codes, channel-major: c * n + l * nv + v.
+std::vector<std::int64_t> mean_brdf_quanta(const BtfModel& m, double step) {
+  const std::size_t n = m.lights.size() * m.views.size();
+  std::vector<std::int64_t> q(3 * n);
+  for (int c = 0; c < 3; ++c)
+    for (std::size_t i = 0; i < n; ++i)
+      q[std::size_t(c) * n + i] = code_of(double(m.mean_brdf[i * 3 + std::size_t(c)]), step);
+  return q;
+}
+
+std::vector<float> mean_brdf_values(const std::vector<std::int64_t>& q, double step) {
+  const std::size_t n = q.size() / 3;
+  std::vector<float> out(n * 3);
+  for (int c = 0; c < 3; ++c)
+    for (std::size_t i = 0; i < n; ++i)
+      out[i * 3 + std::size_t(c)] = float(double(q[std::size_t(c) * n + i]) * step);
+  return out;
+}
+
+// Version 4's codes: each less the one before it along the views, the first view of a light
+// less the first view of the light before. Undone in place.
+void undo_view_deltas(std::span<std::int64_t> d, std::size_t nv) {
+  for (std::size_t i = 0; i < d.size(); ++i)
+    d[i] += i % nv != 0 ? d[i - 1] : i >= nv ? d[i - nv] : 0;
+}
+
+// The plane through the three neighbours on the light x view grid of one plane p (lossless
+// JPEG's predictor 4, ITU-T T.81 Table H.1): a + b - c from the code before along the views
+// (a), the one of the light before (b) and the one before both (c); at the grid's first row
+// and column the neighbours missing are a (and a is b, or 0, at the first view), so the
+// prediction there is a.
+std::int64_t planar_prediction(std::span<const std::int64_t> p, std::size_t i, std::size_t nv) {
+  const bool left = i % nv != 0, up = i >= nv;
+  const std::int64_t a = left ? p[i - 1] : up ? p[i - nv] : 0;
+  const std::int64_t b = up ? p[i - nv] : a;
+  const std::int64_t c = left && up ? p[i - nv - 1] : a;
+  return a + b - c;
+}
+
+// Version 5: the planes G, R - G and B - G of the codes (channel-major), each code less its
+// planar prediction.
+std::vector<std::int64_t> predicted(std::vector<std::int64_t> q, std::size_t nv) {
+  const std::size_t n = q.size() / 3;
+  for (std::size_t i = 0; i < n; ++i) {
+    std::swap(q[i], q[n + i]);  // G first
+    q[n + i] -= q[i];           // R - G
+    q[2 * n + i] -= q[i];       // B - G
   }
+  std::vector<std::int64_t> r(q.size());
+  for (std::size_t c = 0; c < 3; ++c) {
+    const std::span<const std::int64_t> plane(q.data() + c * n, n);
+    for (std::size_t i = 0; i < n; ++i) r[c * n + i] = plane[i] - planar_prediction(plane, i, nv);
+  }
+  return r;
+}
+
+std::vector<std::int64_t> unpredicted(std::vector<std::int64_t> r, std::size_t nv) {
+  const std::size_t n = r.size() / 3;
+  for (std::size_t c = 0; c < 3; ++c) {
+    const std::span<std::int64_t> plane(r.data() + c * n, n);
+    for (std::size_t i = 0; i < n; ++i) plane[i] += planar_prediction(plane, i, nv);
+  }
+  for (std::size_t i = 0; i < n; ++i) {
+    r[n + i] += r[i];
+    r[2 * n + i] += r[i];
+    std::swap(r[i], r[n + i]);
+  }
+  return r;
+}
+
+// The mean BRDF's columns as version 5 writes them (one per plane).
+std::vector<Column> mean_brdf_codes(const BtfModel& m, double step) {
+  const std::vector<std::int64_t> r = predicted(mean_brdf_quanta(m, step), m.views.size());
+  const std::size_t n = r.size() / 3;
+  std::vector<Column> cols;
+  for (std::size_t c = 0; c < 3; ++c)
+    cols.emplace_back(r.begin() + std::ptrdiff_t(c * n), r.begin() + std::ptrdiff_t((c + 1) * n));
   return cols;
 }
 
-std::vector<float> mean_brdf_of(const std::vector<Column>& cols, std::size_t nv, double step) {
-  const std::size_t n = cols[0].size();
-  std::vector<float> out(n * 3);
-  for (int c = 0; c < 3; ++c) {
-    std::int64_t row_first = 0, prev = 0;
-    for (std::size_t i = 0; i < n; ++i) {
-      const std::int64_t q = cols[c][i] + (i % nv == 0 ? row_first : prev);
-      if (i % nv == 0) row_first = q;
-      prev = q;
-      out[i * 3 + c] = float(double(q) * step);
-    }
-  }
-  return out;
+// The mean BRDF that the columns of either coding stand for.
+std::vector<float> mean_brdf_of(const std::vector<Column>& cols, std::size_t nv, double step,
+                                MeanBrdfCoding coding) {
+  std::vector<std::int64_t> r;
+  for (const Column& c : cols) r.insert(r.end(), c.begin(), c.end());
+  if (coding == MeanBrdfCoding::kPredicted) return mean_brdf_values(unpredicted(r, nv), step);
+  const std::size_t n = r.size() / 3;
+  for (std::size_t c = 0; c < 3; ++c) undo_view_deltas(std::span(r).subspan(c * n, n), nv);
+  return mean_brdf_values(r, step);
 }
 
 double brdf_step(const BtfModel& m, const CompactSteps& s) {
@@ -141,7 +201,8 @@ void check_step(ByteReader& r, double step) {
 
 }  // namespace
 
-void put_compact_components(ByteWriter& w, const BtfModel& m, const CompactSteps& s) {
+void put_compact_components(ByteWriter& w, const BtfModel& m) {
+  const CompactSteps& s = m.compact_steps;
   w.put<std::uint32_t>(std::uint32_t(m.mixture.size()));
   for (double step : {s.log_weight, s.log_sigma, s.input_mean, s.colour_mean, s.mean_brdf})
     w.put<double>(step);
@@ -158,9 +219,9 @@ void put_compact_components(ByteWriter& w, const BtfModel& m, const CompactSteps
   w.bytes.insert(w.bytes.end(), packed.begin(), packed.begin() + std::ptrdiff_t(n));
 }
 
-void get_compact_components(ByteReader& r, BtfModel& m) {
+void get_compact_components(ByteReader& r, BtfModel& m, MeanBrdfCoding coding) {
   const auto count = r.get<std::uint32_t>("components");
-  CompactSteps s;
+  CompactSteps& s = m.compact_steps;
   for (double* step : {&s.log_weight, &s.log_sigma, &s.input_mean, &s.colour_mean, &s.mean_brdf}) {
     *step = r.get<double>("quantisation step");
     check_step(r, *step);
@@ -185,7 +246,7 @@ void get_compact_components(ByteReader& r, BtfModel& m) {
   for (int c = 0; c < 3; ++c) brdf.push_back(get_column(cr, directions));
   if (cr.remaining() != 0) r.fail("the compressed codes hold bytes left over");
   m.mixture = components_of(comp, s);
-  m.mean_brdf = mean_brdf_of(brdf, m.views.size(), brdf_step(m, s));
+  m.mean_brdf = mean_brdf_of(brdf, m.views.size(), brdf_step(m, s), coding);
   for (std::size_t k = 0; k < count; ++k) {
     bool ok = m.mixture.weight[k] > 0.0 && std::isfinite(m.mixture.weight[k]);
     for (int n = 0; n < kVariables; ++n)
@@ -198,11 +259,10 @@ void get_compact_components(ByteReader& r, BtfModel& m) {
 }
 
 BtfModel round_to_compact(const BtfModel& m) {
-  const CompactSteps s;
+  const CompactSteps& s = m.compact_steps;
   BtfModel out = m;
   out.mixture = components_of(component_codes(m, s), s);
-  out.mean_brdf =
-      mean_brdf_of(mean_brdf_codes(m, brdf_step(m, s)), m.views.size(), brdf_step(m, s));
+  out.mean_brdf = mean_brdf_values(mean_brdf_quanta(m, brdf_step(m, s)), brdf_step(m, s));
   return out;
 }
 

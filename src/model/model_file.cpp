@@ -173,8 +173,11 @@ Header read_header(std::span<const std::uint8_t> bytes, const std::string& name)
                 fmt::format("model file '{}' is corrupted (CRC-32 {:08x}, stored {:08x}); "
                             "copy or fit it again",
                             name, crc, stored_crc));
-  // Flags 2 (the mixture's compact encoding) came with version 4.
-  if (h.flags > 2 || (h.flags == 2 && h.version < 4))
+  // Flags 2 (the mixture's compact encoding) came with version 4, its predicted mean BRDF
+  // (flags 6) with version 5.
+  const bool known = h.flags <= 1 || (h.flags == 2 && h.version >= 4) ||
+                     (h.flags == (2 | kPredictedMeanBrdf) && h.version >= 5);
+  if (!known)
     throw Error(Error::Kind::kFormat,
                 fmt::format("model file '{}' has unknown flags {:#x}", name, h.flags));
   return h;
@@ -192,9 +195,9 @@ void read_settings(Reader& r, FitSettings& s) {
 }
 
 // The mixture's components and the mean BRDF, which must fill the rest of the payload.
-void read_components(Reader& r, BtfModel& m) {
+void read_components(Reader& r, BtfModel& m, detail::MeanBrdfCoding coding) {
   const Precision p = m.precision;
-  if (p == Precision::kCompact) return detail::get_compact_components(r, m);
+  if (p == Precision::kCompact) return detail::get_compact_components(r, m, coding);
   const auto count = r.get<std::uint32_t>("components");
   const std::size_t real_bytes = p == Precision::kF16 ? 2 : 4;
   if (double(m.lights.size()) * double(m.views.size()) > double(r.remaining()))
@@ -284,7 +287,7 @@ std::vector<std::uint8_t> model_file_bytes(std::string_view method, std::uint32_
 BtfModel read_mixture_payload(std::span<const std::uint8_t> payload, std::uint32_t flags,
                               const std::string& name) {
   BtfModel m;
-  m.precision = Precision(flags);
+  m.precision = Precision(flags & ~kPredictedMeanBrdf);
   Reader r(payload, "model file", name, "fit the model again");
   detail::get_tile(r, m.width, m.height, m.origin, m.format);
   m.lights = get_directions(r, "light directions");
@@ -294,7 +297,9 @@ BtfModel read_mixture_payload(std::span<const std::uint8_t> payload, std::uint32
     if (!(u > 0.0) || !std::isfinite(u)) r.fail(fmt::format("variable unit {} is not positive", u));
   }
   read_settings(r, m.settings);
-  read_components(r, m);
+  read_components(r, m,
+                  flags & kPredictedMeanBrdf ? detail::MeanBrdfCoding::kPredicted
+                                             : detail::MeanBrdfCoding::kViewDeltas);
   return m;
 }
 
@@ -331,9 +336,13 @@ ModelFileContents open_model_file(std::span<const std::uint8_t> bytes, const std
   return c;
 }
 
+std::uint32_t mixture_file_flags(const BtfModel& m) {
+  const auto precision = std::uint32_t(m.precision);
+  return m.precision == Precision::kCompact ? precision | kPredictedMeanBrdf : precision;
+}
+
 std::vector<std::uint8_t> serialize_model(const BtfModel& m) {
-  return model_file_bytes(kMixtureMethod, std::uint32_t(m.precision), m.provenance,
-                          mixture_payload(m));
+  return model_file_bytes(kMixtureMethod, mixture_file_flags(m), m.provenance, mixture_payload(m));
 }
 
 BtfModel deserialize_model(std::span<const std::uint8_t> bytes, const std::string& name) {

@@ -28,7 +28,7 @@ class GaussianMixture final : public Representation {
   Btf decode(const DirectionSet& lights, const DirectionSet& views, int width, int height,
              double tolerance) const override;
   std::vector<std::uint8_t> payload() const override;
-  std::uint32_t file_flags() const override { return std::uint32_t(model_.precision); }
+  std::uint32_t file_flags() const override;  // mixture_file_flags
   std::vector<std::pair<std::string, std::string>> details() const override;
   FactorEncoding encoding() const override;
 

@@ -27,6 +27,19 @@ std::string_view precision_name(Precision p);
 // "32-bit float", "16-bit float", "compact (quantised, zstd)": for people.
 std::string_view precision_text(Precision p);
 
+// The quantisation steps of the compact encoding (docs/FORMAT.md, "The compact encoding"). A
+// value is stored as the integer nearest to value / step, so the value read back is within
+// step / 2 of the one written.
+struct CompactSteps {
+  double log_weight = 1.0 / 256.0;  // ln w_m (weights renormalised to sum 1 when read)
+  double log_sigma = 1.0 / 512.0;   // ln sigma_mn, all nine variables (model units)
+  double input_mean = 1.0 / 256.0;  // mu_mn of the six inputs, as a fraction of sigma_mn read
+  double colour_mean = 1.0 / 16.0;  // mu_m7..9, model units (8-bit levels for 8-bit data)
+  // The mean BRDF, in colour units: a level of 8-bit data (the paper counts it as bytes),
+  // 1/255 of the range of HDR data. Files of version 4 were written with 1/8.
+  double mean_brdf = 1.0;
+};
+
 struct FitSettings {
   std::uint32_t components = 0;  // M requested
   std::uint32_t max_iterations = 0;
@@ -49,6 +62,9 @@ struct BtfModel {
   ProductMixture mixture;        // model units
   FitSettings settings;
   Precision precision = Precision::kF32;
+  // The steps a compact file stores the model with: the defaults, or, for a model read from a
+  // compact file, the file's, so that written again it holds the very same values.
+  CompactSteps compact_steps;
   // Written to and read from the model file beside the payload (model/provenance.hpp).
   Provenance provenance;
 

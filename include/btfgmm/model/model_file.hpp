@@ -17,7 +17,12 @@
 
 namespace btfgmm {
 
-constexpr std::uint32_t kModelFormatVersion = 4;
+constexpr std::uint32_t kModelFormatVersion = 5;
+// The mixture's flags: its Precision, and with the compact encoding (version 5 on) this bit,
+// the mean BRDF's codes predicted from their neighbours (docs/FORMAT.md).
+constexpr std::uint32_t kPredictedMeanBrdf = 4;
+// The flags a mixture's file is written with.
+std::uint32_t mixture_file_flags(const BtfModel& model);
 // The Gaussian mixture's method tag.
 constexpr std::string_view kMixtureMethod = "gm";
 
