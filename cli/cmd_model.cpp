@@ -155,7 +155,8 @@ btfgmm::FitRequest fit_request(const FitOptions& o) {
                                                     : new_fit_request(o);
   if (r.resume && o.given.count("--iterations")) r.config.em.max_iterations = o.iterations;
   if (r.resume && o.given.count("--epsilon")) r.config.em.epsilon = o.epsilon;
-  btfgmm::set_refine_steps(r.config, o.refine_steps);  // resumed or continued: the objective's
+  // Resumed or continued: checked against the objective (a continuation's is its model's).
+  if (o.given.count("--refine-steps")) btfgmm::set_refine_steps(r.config, o.refine_steps);
   r.checkpoint_every = o.checkpoint_every;
   r.config.em.threads = o.threads;
   r.config.em.stop = &g_stop;
@@ -360,9 +361,13 @@ void run_mixture_fit(const FitOptions& options,
     // The model is written, but with fewer steps than the fit affords: said even with --quiet.
     fmt::print(stderr,
                "interrupted during the refinement for the prediction after step {} of {}: {} "
-               "holds the lowest error met so far, and is complete; fit again for the whole "
-               "refinement\n",
-               fit.refinement->steps, fit.refinement->steps_planned, r.output);
+               "holds the lowest error met so far, and is complete{}\n",
+               fit.refinement->steps, fit.refinement->steps_planned, r.output,
+               fit.checkpoint.empty()
+                   ? std::string("; fit again for the whole refinement")
+                   : fmt::format("; EM's state is in {}\nrefine again without EM with: btfgmm fit "
+                                 "--resume {}",
+                                 fit.checkpoint, fit.checkpoint));
     std::exit(130);
   }
 }

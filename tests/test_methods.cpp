@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 #include <zlib.h>
 
+#include <atomic>
 #include <cmath>
 #include <cstring>
 #include <filesystem>
@@ -46,6 +47,26 @@ TEST(Methods, TheMixtureBehindTheInterfaceIsTheMixture) {
   const auto back = read_representation(bytes, "gm.btfgmm");
   EXPECT_EQ(back->method(), "gm");
   EXPECT_EQ(representation_file_bytes(*back), bytes);
+}
+
+// A stop asked for once EM is done ends the mixture's fit within its refinement for the
+// prediction, and the fit says it stopped (a sweep or a budget must not take a model of
+// fewer steps as done); unstopped, the same fit gives its model.
+TEST(Methods, AStopDuringTheMixturesRefinementStopsItsFit) {
+  const Btf tile = test::generated_tile("knit", 6, 5, "rings:0/1,40/6", "rings:0/1,40/3");
+  std::atomic<bool> stop{false};
+  MethodSettings s;
+  s.components = 4;
+  s.iterations = 2;
+  s.stop = &stop;
+  s.progress = [&stop](double fraction, std::string_view stage) {
+    if (stage == "EM" && fraction >= 1.0) stop.store(true);  // after EM's last iteration
+  };
+  EXPECT_NE(error_of([&] { fit_gaussian_mixture(tile, s); }).find("fit was stopped"),
+            std::string::npos);
+  stop.store(false);
+  s.progress = {};
+  EXPECT_EQ(fit_gaussian_mixture(tile, s)->method(), "gm");
 }
 
 TEST(Methods, UnknownNamesAreRefusedWithTheListAndASuggestion) {

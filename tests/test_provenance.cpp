@@ -301,7 +301,8 @@ TEST_F(ProvenanceFit, AFitForThePredictionRecordsItsRefinement) {
   EXPECT_FALSE(f.refinement->stopped);
   EXPECT_EQ(f.refinement->steps, kMinGradientSteps);  // a few samples: the fewest steps
   EXPECT_LT(f.refinement->error_final, f.refinement->error_em);
-  const auto& settings = load_model(dir_ / "m.btfgmm").provenance.fit.settings;
+  const BtfModel written = load_model(dir_ / "m.btfgmm");
+  const auto& settings = written.provenance.fit.settings;
   ASSERT_EQ(settings.back().first, "refinement");
   EXPECT_EQ(settings.back().second.rfind("10 Adam steps; RMSE ", 0), 0u) << settings.back().second;
 
@@ -320,6 +321,19 @@ TEST_F(ProvenanceFit, AFitForThePredictionRecordsItsRefinement) {
   EXPECT_LE(s.refinement->error_final, s.refinement->error_colour);
   const BtfModel m = load_model(r.output);
   EXPECT_EQ(m.provenance.fit.iterations.size(), 3u);
+  // EM's final state is kept beside the model: resumed, the refinement runs again, whole,
+  // and ends where the uninterrupted fit's did.
+  ASSERT_EQ(s.checkpoint, r.output + ".ckpt");
+  ASSERT_TRUE(fs::exists(s.checkpoint));
+  FitRequest resumed = resume_request(s.checkpoint);
+  resumed.config.objective = FitObjective::kPrediction;  // the command's, as fit --resume sets it
+  const FitOutcome again = run_fit(resumed);
+  ASSERT_TRUE(again.refinement);
+  EXPECT_FALSE(again.refinement->stopped);
+  EXPECT_EQ(again.refinement->steps, 10);
+  EXPECT_EQ(again.model.mixture.mean, f.model.mixture.mean);
+  EXPECT_EQ(again.model.mixture.var, f.model.mixture.var);
+  EXPECT_FALSE(fs::exists(s.checkpoint));  // gone with the model written
   EXPECT_EQ(m.provenance.fit.settings.back().second.rfind("4 of 10 Adam steps (stopped); RMSE ", 0),
             0u)
       << m.provenance.fit.settings.back().second;
@@ -331,8 +345,15 @@ TEST_F(ProvenanceFit, AFitForThePredictionRecordsItsRefinement) {
   ASSERT_TRUE(longer.refinement);
   EXPECT_EQ(longer.refinement->steps, 17);
   EXPECT_LE(longer.refinement->error_final, longer.refinement->error_colour);
-  EXPECT_EQ(load_model(r.output).provenance.fit.settings.back().second.rfind("17 Adam steps;", 0),
-            0u);
+  const BtfModel longer_model = load_model(r.output);
+  EXPECT_EQ(longer_model.provenance.fit.settings.back().second.rfind("17 Adam steps;", 0), 0u);
+  // The steps asked for are a setting of their own, which a continuation keeps.
+  EXPECT_NE(std::find(longer_model.provenance.fit.settings.begin(),
+                      longer_model.provenance.fit.settings.end(),
+                      std::make_pair(std::string("refine steps"), std::string("17"))),
+            longer_model.provenance.fit.settings.end());
+  EXPECT_EQ(
+      continue_request(r.output, "", 5, (dir_ / "on.btfgmm").string()).config.refinement_steps, 17);
   // EM alone records no refinement.
   EXPECT_FALSE(run_fit(request(3, "em.btfgmm")).refinement);
 }

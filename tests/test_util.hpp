@@ -6,6 +6,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <cstdint>
 #include <cstdlib>
 #include <exception>
 #include <filesystem>
@@ -14,8 +15,21 @@
 #include <string>
 
 #include "btfgmm/core/error.hpp"
+#include "btfgmm/synth/generate.hpp"
 
 namespace btfgmm::test {
+
+// A generated tile (btfgmm generate) of `size` x `size` pixels at the direction sets given.
+inline Btf generated_tile(const std::string& material, int size, std::uint64_t seed,
+                          const std::string& lights, const std::string& views) {
+  GenerateConfig g;
+  g.material = material;
+  g.size = size;
+  g.seed = seed;
+  g.lights = DirectionSet::parse(lights);
+  g.views = DirectionSet::parse(views);
+  return generate(g);
+}
 
 // The message of the btfgmm::Error `f` throws; a test failure if it throws nothing or
 // something else.

@@ -110,7 +110,8 @@ std::unique_ptr<Representation> fit_gaussian_mixture(const Btf& tile, const Meth
       s.progress(double(p.iteration) / double(p.max_iterations), "EM");
     };
   BtfModel model = fit_model(tile, config, progress);
-  if (model.mixture.size() == 0)
+  // Stopped in EM (no model) or in the refinement (a model of fewer steps): stopped either way.
+  if (model.mixture.size() == 0 || (s.stop && s.stop->load()))
     throw Error(Error::Kind::kArgument, "the Gaussian mixture's fit was stopped");
   // q8, the smallest: the mixture's compact encoding (docs/FORMAT.md).
   model.precision = s.encoding == FactorEncoding::kF16  ? Precision::kF16

@@ -118,11 +118,20 @@ std::vector<float> mean_brdf_values(const std::vector<std::int64_t>& q, double s
   return out;
 }
 
+// The sums and differences of codes wrap modulo 2^64, so that a file's codes, however large,
+// are undone exactly and with no overflow (a reader meets corrupted files).
+std::int64_t plus(std::int64_t a, std::int64_t b) {
+  return std::int64_t(std::uint64_t(a) + std::uint64_t(b));
+}
+std::int64_t minus(std::int64_t a, std::int64_t b) {
+  return std::int64_t(std::uint64_t(a) - std::uint64_t(b));
+}
+
 // Version 4's codes: each less the one before it along the views, the first view of a light
 // less the first view of the light before. Undone in place.
 void undo_view_deltas(std::span<std::int64_t> d, std::size_t nv) {
   for (std::size_t i = 0; i < d.size(); ++i)
-    d[i] += i % nv != 0 ? d[i - 1] : i >= nv ? d[i - nv] : 0;
+    d[i] = plus(d[i], i % nv != 0 ? d[i - 1] : i >= nv ? d[i - nv] : 0);
 }
 
 // The plane through the three neighbours on the light x view grid of one plane p (lossless
@@ -135,7 +144,7 @@ std::int64_t planar_prediction(std::span<const std::int64_t> p, std::size_t i, s
   const std::int64_t a = left ? p[i - 1] : up ? p[i - nv] : 0;
   const std::int64_t b = up ? p[i - nv] : a;
   const std::int64_t c = left && up ? p[i - nv - 1] : a;
-  return a + b - c;
+  return minus(plus(a, b), c);
 }
 
 // Version 5: the planes G, R - G and B - G of the codes (channel-major), each code less its
@@ -143,14 +152,15 @@ std::int64_t planar_prediction(std::span<const std::int64_t> p, std::size_t i, s
 std::vector<std::int64_t> predicted(std::vector<std::int64_t> q, std::size_t nv) {
   const std::size_t n = q.size() / 3;
   for (std::size_t i = 0; i < n; ++i) {
-    std::swap(q[i], q[n + i]);  // G first
-    q[n + i] -= q[i];           // R - G
-    q[2 * n + i] -= q[i];       // B - G
+    std::swap(q[i], q[n + i]);                 // G first
+    q[n + i] = minus(q[n + i], q[i]);          // R - G
+    q[2 * n + i] = minus(q[2 * n + i], q[i]);  // B - G
   }
   std::vector<std::int64_t> r(q.size());
   for (std::size_t c = 0; c < 3; ++c) {
     const std::span<const std::int64_t> plane(q.data() + c * n, n);
-    for (std::size_t i = 0; i < n; ++i) r[c * n + i] = plane[i] - planar_prediction(plane, i, nv);
+    for (std::size_t i = 0; i < n; ++i)
+      r[c * n + i] = minus(plane[i], planar_prediction(plane, i, nv));
   }
   return r;
 }
@@ -159,11 +169,11 @@ std::vector<std::int64_t> unpredicted(std::vector<std::int64_t> r, std::size_t n
   const std::size_t n = r.size() / 3;
   for (std::size_t c = 0; c < 3; ++c) {
     const std::span<std::int64_t> plane(r.data() + c * n, n);
-    for (std::size_t i = 0; i < n; ++i) plane[i] += planar_prediction(plane, i, nv);
+    for (std::size_t i = 0; i < n; ++i) plane[i] = plus(plane[i], planar_prediction(plane, i, nv));
   }
   for (std::size_t i = 0; i < n; ++i) {
-    r[n + i] += r[i];
-    r[2 * n + i] += r[i];
+    r[n + i] = plus(r[n + i], r[i]);
+    r[2 * n + i] = plus(r[2 * n + i], r[i]);
     std::swap(r[i], r[n + i]);
   }
   return r;
@@ -226,6 +236,7 @@ void get_compact_components(ByteReader& r, BtfModel& m, MeanBrdfCoding coding) {
     *step = r.get<double>("quantisation step");
     check_step(r, *step);
   }
+  check_step(r, brdf_step(m, s));  // in the data's scale: the colour unit times s_b
   const auto raw_size = r.get<std::uint64_t>("coded size");
   const std::size_t directions = m.lights.size() * m.views.size();
   // Every column at most 8 bytes a code, plus its width byte.

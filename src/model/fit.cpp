@@ -6,6 +6,7 @@
 #include <omp.h>
 
 #include <algorithm>
+#include <cstdlib>
 #include <memory>
 #include <optional>
 #include <string>
@@ -166,15 +167,22 @@ EmStateCallback periodic_checkpoints(const FitRequest& r, const FitCheckpoint& j
 
 // Interrupted: the state goes to the checkpoint (output + ".ckpt" without one; nowhere
 // without either).
-FitOutcome save_interrupted(const FitRequest& r, FitCheckpoint k, FitState state) {
+// Where an interrupted fit's state goes: the request's checkpoint, else output + ".ckpt"
+// (nowhere without either). Returns the path.
+std::string save_state(const FitRequest& r, FitCheckpoint k, FitState state) {
+  const std::string path = !r.checkpoint.empty() ? r.checkpoint
+                           : !r.output.empty()   ? r.output + ".ckpt"
+                                                 : std::string();
+  k.state = std::move(state);
+  if (!path.empty() && writes_files(r)) save_checkpoint(k, path);
+  return path;
+}
+
+FitOutcome save_interrupted(const FitRequest& r, const FitCheckpoint& k, FitState state) {
   FitOutcome out;
   out.interrupted = true;
   out.iterations = state.result.iterations;
-  out.checkpoint = !r.checkpoint.empty() ? r.checkpoint
-                   : !r.output.empty()   ? r.output + ".ckpt"
-                                         : std::string();
-  k.state = std::move(state);
-  if (!out.checkpoint.empty() && writes_files(r)) save_checkpoint(k, out.checkpoint);
+  out.checkpoint = save_state(r, k, std::move(state));
   return out;
 }
 
@@ -185,6 +193,8 @@ void record_provenance(const FitRequest& r, const FitCheckpoint& job, DataFinger
   p.recorded = true;
   p.data = std::move(data);
   p.fit.settings = settings_record(r);
+  if (r.config.refinement_steps > 0)  // --refine-steps, for --continue to refine alike
+    p.fit.settings.emplace_back("refine steps", fmt::to_string(r.config.refinement_steps));
   p.fit.runs = job.runs;
   p.fit.seconds = model.settings.seconds + (r.resume ? r.resume->seconds_before : 0.0);
 }
@@ -205,7 +215,7 @@ std::pair<std::string, std::string> refinement_record(const PredictionRefinement
 void save_finished(const FitRequest& r, FitOutcome& out) {
   if (!writes_files(r)) return;
   save_model(out.model, r.output);
-  if (!r.checkpoint.empty()) {
+  if (!r.checkpoint.empty() && out.checkpoint.empty()) {
     std::error_code ec;
     fs::remove(r.checkpoint, ec);
   }
@@ -273,6 +283,17 @@ FitRequest resume_request(const fs::path& path) {
   return r;
 }
 
+namespace {
+
+// The --refine-steps a model's provenance records (0: none, as many as the fit afforded).
+int recorded_refine_steps(const Provenance& p) {
+  for (const auto& [name, value] : p.fit.settings)
+    if (name == "refine steps") return std::clamp(std::atoi(value.c_str()), 0, kMaxRefineSteps);
+  return 0;
+}
+
+}  // namespace
+
 FitRequest continue_request(const fs::path& path, const std::string& input, int iterations,
                             const std::string& output) {
   const std::string name = path.string();
@@ -303,6 +324,7 @@ FitRequest continue_request(const fs::path& path, const std::string& input, int 
   r.config.em.max_iterations = iterations;
   r.config.em.epsilon = m.settings.epsilon;
   r.config.objective = recorded_objective(p);
+  r.config.refinement_steps = recorded_refine_steps(p);
   r.precision = m.precision;
   r.output = output;
   FitCheckpoint k = checkpoint_of(r, Tile{}, 0);
@@ -353,6 +375,8 @@ FitOutcome fit_in_memory(const FitRequest& request, const FitObserver& observer)
   FitOutcome out;
   out.model = std::move(model);
   out.refinement = refined;
+  // Stopped in the refinement: EM's final state is kept, for --resume to refine again.
+  if (refined && refined->stopped) out.checkpoint = save_state(request, job, std::move(state));
   return out;
 }
 

@@ -173,9 +173,9 @@ Header read_header(std::span<const std::uint8_t> bytes, const std::string& name)
                 fmt::format("model file '{}' is corrupted (CRC-32 {:08x}, stored {:08x}); "
                             "copy or fit it again",
                             name, crc, stored_crc));
-  // Flags 2 (the mixture's compact encoding) came with version 4, its predicted mean BRDF
-  // (flags 6) with version 5.
-  const bool known = h.flags <= 1 || (h.flags == 2 && h.version >= 4) ||
+  // Flags 2 (the mixture's compact encoding) came with version 4 and went with version 5,
+  // which writes its predicted mean BRDF (flags 6) instead.
+  const bool known = h.flags <= 1 || (h.flags == 2 && h.version == 4) ||
                      (h.flags == (2 | kPredictedMeanBrdf) && h.version >= 5);
   if (!known)
     throw Error(Error::Kind::kFormat,
@@ -289,6 +289,9 @@ BtfModel read_mixture_payload(std::span<const std::uint8_t> payload, std::uint32
   BtfModel m;
   m.precision = Precision(flags & ~kPredictedMeanBrdf);
   Reader r(payload, "model file", name, "fit the model again");
+  if (std::uint32_t(m.precision) > 2 ||
+      ((flags & kPredictedMeanBrdf) && m.precision != Precision::kCompact))
+    r.fail(fmt::format("flags {:#x} name no encoding of a Gaussian mixture", flags));
   detail::get_tile(r, m.width, m.height, m.origin, m.format);
   m.lights = get_directions(r, "light directions");
   m.views = get_directions(r, "view directions");

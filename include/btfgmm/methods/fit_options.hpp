@@ -35,7 +35,6 @@ struct FitOptions {
   std::string objective;  // gm: "prediction" (default) or "likelihood" (the paper's EM alone)
   int refine_steps = 0;   // gm, prediction: the refinement's Adam steps (0: as many as it affords)
 };
-constexpr int kMaxRefineSteps = 100000;
 
 // config.refinement_steps = steps (0: as many as the fit affords). Throws Error(kArgument)
 // for steps outside 0..kMaxRefineSteps, and for steps with an objective other than kPrediction.

@@ -37,7 +37,9 @@ struct FitConfig {
 // Mean BRDF, samples, initialisation and EM on a BTF tile. With `resume`, EM continues from
 // that state instead of a fresh initialisation (the same tile and settings are the caller's
 // to check: run_fit does). `after_iteration` as for fit_em. If the fit was interrupted
-// (config.em.stop), *state receives where it stands and the returned model is empty. The
+// (config.em.stop) during EM, *state receives where it stands and the returned model is
+// empty; during the refinement for the prediction, its steps end there and the model holds
+// the lowest error met. The
 // model's provenance holds the fit's log (its EM iterations, this run's time); the data's
 // fingerprint, the settings and `recorded` are the caller's to set (run_fit, fit_and_record).
 BtfModel fit_model(const Btf& btf, const FitConfig& config, const EmCallback& progress = {},
@@ -125,7 +127,9 @@ struct FitOutcome {
   std::uint64_t file_bytes = 0;
   // With the objective kPrediction, what the refinement did: its steps and errors, and
   // whether config.em.stop ended it early (the model then holds the lowest error met, and is
-  // written as any finished fit's). Recorded in the provenance's settings as "refinement".
+  // written as any finished fit's; EM's final state is then saved to `checkpoint` as an
+  // interrupted fit's would be, kept, and resume_request(checkpoint) refines again without
+  // EM). Recorded in the provenance's settings as "refinement".
   std::optional<PredictionRefinement> refinement;
 };
 

@@ -2,7 +2,8 @@
 // records the model's provenance (model/provenance.hpp) after the method tag; version 2 tags
 // the payload with the method that wrote it (methods/registry.hpp reads any method); version 1
 // files hold a Gaussian mixture and are read as such. Versions 1 and 2 have no provenance.
-// Version 4 adds the mixture's compact encoding (flags 2).
+// Version 4 adds the mixture's compact encoding (flags 2); version 5 predicts its mean BRDF
+// (flags 6).
 #pragma once
 
 #include <cstdint>

@@ -128,6 +128,7 @@ struct GradientConfig {
 // them all), so the passes take about 0.4 of EM's time; the two colour refits and the last E
 // pass add a few per cent (docs/ALGORITHM.md).
 constexpr double kGradientWorkShare = 0.10;
+constexpr int kMaxRefineSteps = 100000;  // the most a fit may ask for (fit --refine-steps)
 constexpr int kMinGradientSteps = 10, kMaxGradientSteps = 1000;
 GradientConfig affordable_gradient(std::size_t samples, int em_iterations);
 
