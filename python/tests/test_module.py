@@ -237,7 +237,8 @@ def test_progress_and_stopping_a_fit(work):
     assert calls == [(1 / 30, "EM"), (2 / 30, "EM")]
 
     # The refinement for the prediction reports its steps after EM's iterations, and Ctrl-C
-    # there stops it too: after the step under way, no later call.
+    # there is raised once the fit has stopped (that the steps end there is the C++ tests'
+    # RefineGradient.StopEndsTheStepsWithTheBestMet).
     stages = []
     btfgmm.fit(work["btf"], tile=(0, 0, 6, 6), components=5, iterations=3, seed=2,
                progress=lambda fraction, stage: stages.append((fraction, stage)))

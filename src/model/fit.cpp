@@ -84,15 +84,19 @@ LoadedTile load_tile(const FitRequest& r) {
 // The settings of a mixture's fit as its provenance records them.
 std::vector<std::pair<std::string, std::string>> settings_record(const FitRequest& r) {
   const int threads = r.config.em.threads > 0 ? r.config.em.threads : omp_get_max_threads();
-  return {{"method", "gm"},
-          {"components", fmt::to_string(r.config.components)},
-          {"iterations", fmt::to_string(r.config.em.max_iterations)},
-          {"epsilon", fmt::format("{:g}", r.config.em.epsilon)},
-          {"objective", std::string(objective_name(r.config.objective))},
-          {"seed", fmt::to_string(r.config.seed)},
-          {"precision", std::string(precision_name(r.precision))},
-          {"threads", fmt::to_string(threads)},
-          {"processes", fmt::to_string(r.processes ? r.processes->size() : 1)}};
+  std::vector<std::pair<std::string, std::string>> s = {
+      {"method", "gm"},
+      {"components", fmt::to_string(r.config.components)},
+      {"iterations", fmt::to_string(r.config.em.max_iterations)},
+      {"epsilon", fmt::format("{:g}", r.config.em.epsilon)},
+      {"objective", std::string(objective_name(r.config.objective))},
+      {"seed", fmt::to_string(r.config.seed)},
+      {"precision", std::string(precision_name(r.precision))},
+      {"threads", fmt::to_string(threads)},
+      {"processes", fmt::to_string(r.processes ? r.processes->size() : 1)}};
+  if (r.config.refinement_steps > 0)  // --refine-steps, for --continue to refine alike
+    s.emplace_back("refine steps", fmt::to_string(r.config.refinement_steps));
+  return s;
 }
 
 // What a checkpoint of this request holds besides the state: the fit's inputs and settings,
@@ -165,8 +169,6 @@ EmStateCallback periodic_checkpoints(const FitRequest& r, const FitCheckpoint& j
   };
 }
 
-// Interrupted: the state goes to the checkpoint (output + ".ckpt" without one; nowhere
-// without either).
 // Where an interrupted fit's state goes: the request's checkpoint, else output + ".ckpt"
 // (nowhere without either). Returns the path.
 std::string save_state(const FitRequest& r, FitCheckpoint k, FitState state) {
@@ -178,6 +180,7 @@ std::string save_state(const FitRequest& r, FitCheckpoint k, FitState state) {
   return path;
 }
 
+// Interrupted in EM: the outcome names where the state went.
 FitOutcome save_interrupted(const FitRequest& r, const FitCheckpoint& k, FitState state) {
   FitOutcome out;
   out.interrupted = true;
@@ -193,8 +196,6 @@ void record_provenance(const FitRequest& r, const FitCheckpoint& job, DataFinger
   p.recorded = true;
   p.data = std::move(data);
   p.fit.settings = settings_record(r);
-  if (r.config.refinement_steps > 0)  // --refine-steps, for --continue to refine alike
-    p.fit.settings.emplace_back("refine steps", fmt::to_string(r.config.refinement_steps));
   p.fit.runs = job.runs;
   p.fit.seconds = model.settings.seconds + (r.resume ? r.resume->seconds_before : 0.0);
 }
