@@ -1,12 +1,25 @@
 // bench_fit: one EM fit of btfgmm side by side with Armadillo's gmm_diag (the EM behind
 // mlpack's diagonal GMM), on the same samples from the same starting parameters, each in a
-// child process of its own so that its peak memory is its own. Prints one table: seconds,
-// ns per sample-component-iteration, mean log-likelihood, peak memory, and the ratio.
+// child process of its own so that its peak memory is its own. Prints:
 //
-//   bench_fit [--size S] [--tile T] [--components M] [--iterations K] [--threads N]
-//             [--no-peer] [--save FILE]
+//  1. btfgmm's fit of the tile's model (x, y wrap around the tile, as every fit's), its
+//     decoding, and, for each thread count of --threads, btfgmm beside Armadillo on the plain
+//     model of the paper (nothing wraps: EmConfig::tile_wraps off, the model Armadillo fits),
+//     so that the two compute the same thing: seconds, ns per sample-component-iteration, mean
+//     log-likelihood (equal to about 1e-7), peak memory, and the ratio.
+//  2. With --scaling, the thread scaling of btfgmm's fit: for 1, 2, 4, ... and all threads,
+//     the time of an iteration (the mean of iterations 2..K), where it goes (the tables of
+//     Eq. 2, the E pass, the M-step with the lights' sums), the speed-up over one thread, the
+//     efficiency, the serial fraction it implies (Karp and Flatt 1990: e = (1/S - 1/n) /
+//     (1 - 1/n)), and the share of the stages that run on one thread.
+//
+//   bench_fit [--size S] [--tile T] [--components M] [--iterations K] [--threads LIST]
+//             [--no-peer] [--scaling] [--save FILE]
 //   bench_fit --decode FILE [--threads N] [--tolerance L]
 //
+// --threads: a comma-separated list of thread counts for part 1 (0: all cores; default 0).
+// Exits with 1 where a plain-model fit's log-likelihood differs from Armadillo's by more than
+// 1e-6 (the two no longer fit the same model).
 // --save writes the fitted model; --decode times only the decoding of a saved model's whole
 // tile (every light and view of it), with decode()'s tolerance L (levels) and with 0.
 //
@@ -18,13 +31,13 @@
 
 #include <omp.h>
 
+#include <algorithm>
 #include <armadillo>
-#include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
-#include <cstring>
-#include <ctime>
 #include <string>
+#include <vector>
 
 #include "bench_clock.hpp"
 #include "btfgmm/btfgmm.hpp"
@@ -37,9 +50,10 @@
 namespace {
 
 struct Options {
-  int size = 32, tile = 12, iterations = 5, threads = 0;
+  int size = 32, tile = 12, iterations = 5;
+  std::vector<int> threads{0};
   std::size_t components = 600;
-  bool peer = true;
+  bool peer = true, scaling = false;
   std::string save, decode;
   double tolerance = btfgmm::kDecodeTolerance;
 };
@@ -47,7 +61,10 @@ struct Options {
 struct Result {
   double seconds = 0, log_likelihood = 0, cpu_seconds = 0, decode_seconds = 0;
   double fit_cpu_seconds = 0, decode_cpu_seconds = 0;  // CPU time of all threads
+  double per_iteration = 0;                            // mean of iterations 2..K
+  btfgmm::EmStageSeconds stages;
   long peak_kib = 0;
+  int threads = 0;
   bool ok = false;
 };
 
@@ -70,22 +87,23 @@ btfgmm::SampleSet samples(const Options& o) {
 using bench::cpu_now;
 using bench::now;
 
-Result run_ours(const Options& o) {
-  const btfgmm::SampleSet s = samples(o);
-  btfgmm::ProductMixture mix = btfgmm::initial_mixture(s, o.components, 7);
-  btfgmm::EmConfig c;
-  c.max_iterations = o.iterations;
-  c.threads = o.threads;
-  // As for Armadillo: K iterations timed, the log-likelihood of the result computed after.
-  c.final_log_likelihood = false;
-  const double t0 = now(), c0 = cpu_now();
-  btfgmm::fit_em(s, mix, c);
-  Result out;
-  out.seconds = now() - t0;
-  out.fit_cpu_seconds = cpu_now() - c0;
-  out.log_likelihood = btfgmm::mean_log_likelihood(s, mix, o.threads);
-  out.ok = true;
-  // Decoding the whole tile from the fitted model (T x T x 81 x 81 predictions).
+int resolved(int threads) {
+  return threads > 0 ? threads : omp_get_max_threads();
+}
+
+// The mean time of iterations 2..K (all of them where K = 1): the first iteration from a
+// random start is the densest.
+double per_iteration(const btfgmm::EmResult& r) {
+  const std::size_t k = r.seconds.size();
+  if (k == 0) return 0.0;
+  if (k == 1) return r.seconds[0];
+  return (r.seconds[k - 1] - r.seconds[0]) / double(k - 1);
+}
+
+// The decoding of the whole tile from the fitted model (T x T x 81 x 81 predictions), timed
+// into `out`; the model saved where --save asks.
+void decode_and_save(const Options& o, const btfgmm::SampleSet& s,
+                     const btfgmm::ProductMixture& mix, Result& out) {
   btfgmm::BtfModel model;
   model.lights = model.views = btfgmm::DirectionSet::ubo81();
   model.width = model.height = o.tile;
@@ -98,13 +116,36 @@ Result run_ours(const Options& o) {
   out.decode_cpu_seconds = cpu_now() - c1;
   if (decoded.data().empty()) out.ok = false;
   if (!o.save.empty()) btfgmm::save_model(model, o.save);
+}
+
+// btfgmm's fit on `threads` threads; `tile_wraps` off fits the plain model, as Armadillo.
+Result run_ours(const Options& o, int threads, bool tile_wraps, bool decode) {
+  const btfgmm::SampleSet s = samples(o);
+  btfgmm::ProductMixture mix = btfgmm::initial_mixture(s, o.components, 7);
+  btfgmm::EmConfig c;
+  c.max_iterations = o.iterations;
+  c.threads = threads;
+  c.tile_wraps = tile_wraps;
+  // As for Armadillo: K iterations timed, the log-likelihood of the result computed after.
+  c.final_log_likelihood = false;
+  const double t0 = now(), c0 = cpu_now();
+  const btfgmm::EmResult r = btfgmm::fit_em(s, mix, c);
+  Result out;
+  out.seconds = now() - t0;
+  out.fit_cpu_seconds = cpu_now() - c0;
+  out.per_iteration = per_iteration(r);
+  out.stages = r.stages;
+  out.threads = resolved(threads);
+  out.log_likelihood = btfgmm::mean_log_likelihood(s, mix, threads, tile_wraps);
+  out.ok = true;
+  if (decode) decode_and_save(o, s, mix, out);
   return out;
 }
 
 // Decoding a saved model's whole tile, with the tolerance and with every component.
 int run_decode(const Options& o) {
   const btfgmm::BtfModel model = btfgmm::load_model(o.decode);
-  if (o.threads > 0) omp_set_num_threads(o.threads);
+  if (o.threads.front() > 0) omp_set_num_threads(o.threads.front());
   const double n =
       double(model.width) * model.height * double(model.lights.size()) * double(model.views.size());
   std::printf("decode %s: %d x %d tile, %zu x %zu directions, %.0f predictions, M = %zu\n\n",
@@ -126,7 +167,8 @@ int run_decode(const Options& o) {
   return 0;
 }
 
-Result run_armadillo(const Options& o) {
+// Armadillo's gmm_diag on `threads` threads (its E and M steps are OpenMP loops).
+Result run_armadillo(const Options& o, int threads) {
   const btfgmm::SampleSet s = samples(o);
   const btfgmm::ProductMixture mix = btfgmm::initial_mixture(s, o.components, 7);
   arma::mat data(btfgmm::kVariables, s.size());
@@ -145,6 +187,7 @@ Result run_armadillo(const Options& o) {
   }
   arma::gmm_diag g;
   g.set_params(means, dcovs, hefts);
+  omp_set_num_threads(resolved(threads));
   const double t0 = now(), c0 = cpu_now();
   // keep_existing: start from the parameters above; no k-means; o.iterations EM iterations;
   // the same variance floor as btfgmm.
@@ -154,6 +197,7 @@ Result run_armadillo(const Options& o) {
   out.seconds = now() - t0;
   out.fit_cpu_seconds = cpu_now() - c0;
   out.log_likelihood = g.avg_log_p(data);
+  out.threads = resolved(threads);
   out.ok = ok;
   return out;
 }
@@ -182,13 +226,103 @@ Result in_child(F f) {
   return r;
 }
 
-}  // namespace
+// The largest difference of the mean log-likelihoods of the plain model's fits by btfgmm and
+// by Armadillo that counts as the same fit.
+constexpr double kSameModel = 1e-6;
 
-int main(int argc, char** argv) {
-  Options o;
+void print_row(const char* name, const Result& r, double pairs) {
+  std::printf("| %s | %d | %.2f | %.2f | %.3f | %.8f | %.0f MiB |\n", name, r.threads, r.seconds,
+              r.fit_cpu_seconds, r.seconds / pairs * 1e9, r.log_likelihood, r.peak_kib / 1024.0);
+  std::fflush(stdout);
+}
+
+// Part 1: the tile's fit and its decoding, then each thread count's plain-model fits side by side.
+bool run_comparison(const Options& o, double n, double pairs) {
+  std::printf(
+      "| implementation | threads | seconds | CPU seconds (all threads) | ns / (sample x "
+      "component x iteration) | mean log-likelihood | peak memory |\n"
+      "|---|---|---|---|---|---|---|\n");
+  const Result ours = in_child([&] { return run_ours(o, o.threads.front(), true, true); });
+  print_row("btfgmm fit_em, the tile's model (x, y wrap)", ours, pairs);
+  bool ok = ours.ok;
+  std::vector<int> done;
+  for (const int threads : o.threads) {
+    if (!o.peer || std::find(done.begin(), done.end(), resolved(threads)) != done.end()) continue;
+    done.push_back(resolved(threads));
+    const Result plain = in_child([&] { return run_ours(o, threads, false, false); });
+    print_row("btfgmm fit_em, the plain model", plain, pairs);
+    const Result peer = in_child([&] { return run_armadillo(o, threads); });
+    const std::string name = "Armadillo " + arma::arma_version::as_string() + " gmm_diag";
+    print_row(name.c_str(), peer, pairs);
+    std::printf("|  | %d | ratio %.1fx | CPU ratio %.1fx | | log-likelihood difference %.2e | |\n",
+                plain.threads, peer.seconds / plain.seconds,
+                peer.fit_cpu_seconds / plain.fit_cpu_seconds,
+                plain.log_likelihood - peer.log_likelihood);
+    // The same model from the same start: the two must agree (Eq. 3 to float rounding).
+    const bool same = std::abs(plain.log_likelihood - peer.log_likelihood) <= kSameModel;
+    if (!same) std::printf("the plain model's log-likelihood differs from Armadillo's\n");
+    ok = ok && plain.ok && peer.ok && same;
+  }
+  std::printf(
+      "\nbtfgmm decode of the whole tile: %.0f predictions with M = %zu in %.2f s (CPU %.2f s; "
+      "%.2f ns per prediction x component)\n",
+      n, o.components, ours.decode_seconds, ours.decode_cpu_seconds,
+      ours.decode_seconds / (n * double(o.components)) * 1e9);
+  return ok;
+}
+
+// 1, 2, 4, ... threads and all of them.
+std::vector<int> thread_ladder() {
+  std::vector<int> out;
+  const int all = omp_get_max_threads();
+  for (int t = 1; t < all; t *= 2) out.push_back(t);
+  out.push_back(all);
+  return out;
+}
+
+// Part 2: the thread scaling of the tile's fit.
+bool run_scaling(const Options& o) {
+  std::printf(
+      "\n## Thread scaling (the tile's model; s / iteration: the mean of iterations 2..%d; the "
+      "stages: the mean of all)\n\n"
+      "| threads | s (all %d) | s / iteration | tables | E pass | M-step and sums | speed-up | "
+      "efficiency | serial fraction (Karp-Flatt) | M-step and sums' share |\n"
+      "|---|---|---|---|---|---|---|---|---|---|\n",
+      o.iterations, o.iterations);
+  double one = 0.0;
+  bool ok = true;
+  for (const int t : thread_ladder()) {
+    const Result r = in_child([&] { return run_ours(o, t, true, false); });
+    ok = ok && r.ok;
+    const double k = double(o.iterations);
+    if (t == 1) one = r.per_iteration;
+    const double speedup = one / r.per_iteration;
+    const double serial = t > 1 ? (1.0 / speedup - 1.0 / t) / (1.0 - 1.0 / t) : 0.0;
+    std::printf("| %d | %.3f | %.4f | %.4f | %.4f | %.4f | %.2f | %.0f %% | %.3f | %.1f %% |\n", t,
+                r.seconds, r.per_iteration, r.stages.tables / k, r.stages.e_pass / k,
+                r.stages.m_step / k, speedup, 100.0 * speedup / t, serial,
+                100.0 * r.stages.m_step / (r.stages.tables + r.stages.e_pass + r.stages.m_step));
+    std::fflush(stdout);
+  }
+  return ok;
+}
+
+std::vector<int> parse_list(const char* s) {
+  std::vector<int> out;
+  for (const char* p = s; *p;) {
+    char* end = nullptr;
+    out.push_back(int(std::strtol(p, &end, 10)));
+    if (end == p) return {};
+    p = *end == ',' ? end + 1 : end;
+  }
+  return out;
+}
+
+bool parse(int argc, char** argv, Options& o) {
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
-    auto next = [&] { return i + 1 < argc ? std::atol(argv[++i]) : 0L; };
+    const bool has = i + 1 < argc;
+    auto next = [&] { return has ? std::atol(argv[++i]) : 0L; };
     if (a == "--size")
       o.size = int(next());
     else if (a == "--tile")
@@ -197,23 +331,34 @@ int main(int argc, char** argv) {
       o.components = std::size_t(next());
     else if (a == "--iterations")
       o.iterations = int(next());
-    else if (a == "--threads")
-      o.threads = int(next());
+    else if (a == "--threads" && has)
+      o.threads = parse_list(argv[++i]);
     else if (a == "--no-peer")
       o.peer = false;
-    else if (a == "--save" && i + 1 < argc)
+    else if (a == "--scaling")
+      o.scaling = true;
+    else if (a == "--save" && has)
       o.save = argv[++i];
-    else if (a == "--decode" && i + 1 < argc)
+    else if (a == "--decode" && has)
       o.decode = argv[++i];
-    else if (a == "--tolerance" && i + 1 < argc)
+    else if (a == "--tolerance" && has)
       o.tolerance = std::atof(argv[++i]);
-    else {
-      std::fprintf(stderr,
-                   "usage: bench_fit [--size S] [--tile T] [--components M] [--iterations K] "
-                   "[--threads N] [--no-peer] [--save FILE]\n       bench_fit --decode FILE "
-                   "[--threads N] [--tolerance L]\n");
-      return 2;
-    }
+    else
+      return false;
+  }
+  return !o.threads.empty() && o.iterations > 0 && o.tile > 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  Options o;
+  if (!parse(argc, argv, o)) {
+    std::fprintf(stderr,
+                 "usage: bench_fit [--size S] [--tile T] [--components M] [--iterations K] "
+                 "[--threads N,N,...] [--no-peer] [--scaling] [--save FILE]\n"
+                 "       bench_fit --decode FILE [--threads N] [--tolerance L]\n");
+    return 2;
   }
   if (!o.decode.empty()) return run_decode(o);
   if (o.tile > o.size) o.size = o.tile;
@@ -223,30 +368,7 @@ int main(int argc, char** argv) {
       "EM fit: %d x %d tile of a generated corduroy BTF, 81 x 81 directions, N = %.0f "
       "samples, M = %zu, %d iterations, same starting parameters\n\n",
       o.tile, o.tile, n, o.components, o.iterations);
-  std::printf(
-      "| implementation | seconds | CPU seconds (all threads) | ns / (sample x component x "
-      "iteration) | mean log-likelihood | peak memory |\n|---|---|---|---|---|---|\n");
-  const Result ours = in_child([&] { return run_ours(o); });
-  const double predictions = n;
-  std::printf("| btfgmm fit_em | %.2f | %.2f | %.3f | %.6f | %.0f MiB |\n", ours.seconds,
-              ours.fit_cpu_seconds, ours.seconds / pairs * 1e9, ours.log_likelihood,
-              ours.peak_kib / 1024.0);
-  std::fflush(stdout);
-  std::printf(
-      "\nbtfgmm decode of the whole tile: %.0f predictions with M = %zu in %.2f s (CPU %.2f s; "
-      "%.2f ns per prediction x component)\n",
-      predictions, o.components, ours.decode_seconds, ours.decode_cpu_seconds,
-      ours.decode_seconds / (predictions * double(o.components)) * 1e9);
-  if (o.peer) {
-    const Result peer = in_child([&] { return run_armadillo(o); });
-    std::printf("| Armadillo %s gmm_diag | %.2f | %.2f | %.3f | %.6f | %.0f MiB |\n",
-                arma::arma_version::as_string().c_str(), peer.seconds, peer.fit_cpu_seconds,
-                peer.seconds / pairs * 1e9, peer.log_likelihood, peer.peak_kib / 1024.0);
-    std::printf(
-        "\nbtfgmm is %.1fx faster than Armadillo per sample x component x iteration in wall "
-        "time, %.1fx in CPU time (log-likelihood difference %.2e)\n",
-        peer.seconds / ours.seconds, peer.fit_cpu_seconds / ours.fit_cpu_seconds,
-        ours.log_likelihood - peer.log_likelihood);
-  }
-  return ours.ok ? 0 : 1;
+  bool ok = run_comparison(o, n, pairs);
+  if (o.scaling) ok = run_scaling(o) && ok;
+  return ok ? 0 : 1;
 }

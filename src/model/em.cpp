@@ -5,15 +5,17 @@
 // + L[l][m]  (the alpha_i, beta_i terms: the light only)
 // + V[v][m]  (the alpha_v, beta_v terms: the view only)
 // + the three colour terms (the sample itself).
-// The tables are built once per iteration; a block is one (pixel, light) pair and its nv
-// views, whose responsibilities are folded at once into the statistics:
+// The tables are built once per iteration (em_tables.cpp); a block is one (pixel, light) pair
+// and its nv views, whose responsibilities are folded at once into the statistics:
 //   per view:        sum q                      (the view angles follow from these)
 //   per component:   sum q, sum q dx, q dx^2, q dy, q dy^2 (the pixel's minimum-image
 //                    distances), sum q d, sum q d^2 with d = colour - previous mean.
-// Each light's pixels are cut into a fixed number of chunks whose statistics are reduced in
-// chunk order to the light's 1 + 19 M numbers; the lights' are added in light order, over
-// every process of a distributed sample set (docs/SCALING.md). So the result is the same for
-// any number of threads and processes.
+// Each light's pixels are cut into chunks, as many as the tile's size gives (chunk_count),
+// whose statistics are reduced in chunk order to the light's 1 + 19 M numbers; the lights'
+// are added in light order, over every process of a distributed sample set
+// (docs/SCALING.md). So the result is the same for any number of threads and processes. The
+// threads share the (light, chunk) pairs of several lights at a time (light_batch), so that
+// they have many more pieces of work than there are threads, and meet twice per batch.
 //
 // Per iteration: the tables (make_tables), the E pass (e_pass: Eq. 2-4, the group passes of
 // em_group_pass.hpp; light_statistics), the lights combined (combine), the M-step (Eq. 5-7,
@@ -21,13 +23,13 @@
 #include <omp.h>
 
 #include <algorithm>
-#include <array>
 #include <atomic>
 #include <chrono>
 #include <cmath>
 #include <cstdint>
 #include <exception>
 #include <limits>
+#include <span>
 
 #include "btfgmm/core/communicator.hpp"
 #include "btfgmm/core/text.hpp"
@@ -35,199 +37,17 @@
 #include "btfgmm/model/samples.hpp"
 #include "core/flush_denormals.hpp"
 #include "model/em_group_pass.hpp"
+#include "model/em_tables.hpp"
 #include "model/mixture_internal.hpp"
 #include "model/responsibilities.hpp"
 
 namespace btfgmm {
 namespace {
 
-using detail::kAbsent;
 using detail::kGroup;
-using detail::kLanes;
+using detail::Periods;
 using detail::Tables;
 using detail::Workspace;
-
-constexpr std::size_t kChunks = 16;
-
-// Components grouped into vectors of kLanes whose colour means (r, g, b) lie close together
-// (a k-d split, mixture_internal.hpp): a sample's responsibilities concentrate on the
-// components whose colour is near its own, so they share few vectors, and the vectors' colour
-// boxes are small, which tightens the chunk bound of the AVX-512 pass. The order changes
-// nothing but float summation order; it is a function of the parameters alone.
-std::vector<std::size_t> block_order(const ProductMixture& mix) {
-  return detail::kd_order(mix, {6, 7, 8}, kLanes);
-}
-
-// The periods of the nine variables on the sample grid: x and y wrap around the tile
-// (mixture_internal.hpp, "The tile wraps").
-detail::Periods tile_periods(const SampleSet& s) {
-  return detail::variable_periods({double(s.width), double(s.height)});
-}
-
-// The tables of log w_m F(x | m), Eq. (2), in parts: S (log w_m, the normalisation and the
-// x, y terms, wrapped) per pixel, L (alpha_i, beta_i) per light, V (alpha_v, beta_v) per view, and
-// the colour means and -1/(2 sigma^2) for the colour terms.
-void tabulate_densities(Tables& t, const SampleSet& s, const ProductMixture& mix) {
-  const std::size_t m_count = t.m, st = t.stride;
-  t.s.assign(s.pixels() * st, kAbsent);
-  t.l.assign(s.lights * st, 0.0f);
-  t.v.assign(s.views * st, 0.0f);
-  t.mu.assign(3 * st, 0.0f);
-  t.neg_half_inv_var.assign(3 * st, 0.0f);
-  std::vector<double> base(m_count);
-  for (std::size_t k = 0; k < m_count; ++k) {
-    const std::size_t m = t.order[k];
-    base[k] = detail::log_density_constant(mix, m);
-    for (int c = 0; c < 3; ++c) {
-      t.mu[c * st + k] = float(mix.mean[m][6 + c]);
-      t.neg_half_inv_var[c * st + k] = float(-0.5 / mix.var[m][6 + c]);
-    }
-  }
-  const detail::Periods periods = tile_periods(s);
-  auto gauss = [&](std::size_t k, int n, double x) {
-    const std::size_t m = t.order[k];
-    return detail::gauss_exponent(x, mix.mean[m][n], mix.var[m][n], periods[std::size_t(n)]);
-  };
-  for (std::size_t p = 0; p < s.pixels(); ++p) {
-    const double x = double(p % std::size_t(s.width)), y = double(p / std::size_t(s.width));
-    for (std::size_t k = 0; k < m_count; ++k)
-      t.s[p * st + k] = float(base[k] + gauss(k, 0, x) + gauss(k, 1, y));
-  }
-  for (std::size_t l = 0; l < s.lights; ++l)
-    for (std::size_t k = 0; k < m_count; ++k)
-      t.l[l * st + k] = float(gauss(k, 2, s.light_ab[l][0]) + gauss(k, 3, s.light_ab[l][1]));
-  for (std::size_t v = 0; v < s.views; ++v)
-    for (std::size_t k = 0; k < m_count; ++k)
-      t.v[v * st + k] = float(gauss(k, 4, s.view_ab[v][0]) + gauss(k, 5, s.view_ab[v][1]));
-}
-
-// What the AVX-512 pass's chunk bound reads (ChunkBound), per chunk of kLanes components:
-// the largest V of each view, the box of the colour means, the largest -1/(2 sigma^2).
-void tabulate_chunk_bounds(Tables& t, const SampleSet& s) {
-  const std::size_t m_count = t.m, st = t.stride;
-  const std::size_t chunks = st / kLanes;
-  const std::size_t pc = t.padded_chunks = (chunks + kLanes - 1) / kLanes * kLanes;
-  t.v_max.assign(s.views * pc, 0.0f);
-  for (std::size_t v = 0; v < s.views; ++v)
-    for (std::size_t j = 0; j < chunks; ++j)
-      t.v_max[v * pc + j] =
-          *std::max_element(&t.v[v * st + j * kLanes], &t.v[v * st + (j + 1) * kLanes]);
-  for (int c = 0; c < 3; ++c) {
-    t.lo[c].assign(pc, 0.0f);
-    t.hi[c].assign(pc, 0.0f);
-    t.h_max[c].assign(pc, 0.0f);
-    for (std::size_t j = 0; j < chunks; ++j) {
-      float lo = INFINITY, hi = -INFINITY, hm = -INFINITY;
-      for (std::size_t k = j * kLanes; k < std::min(m_count, (j + 1) * kLanes); ++k) {
-        lo = std::min(lo, t.mu[std::size_t(c) * st + k]);
-        hi = std::max(hi, t.mu[std::size_t(c) * st + k]);
-        hm = std::max(hm, t.neg_half_inv_var[std::size_t(c) * st + k]);
-      }
-      t.lo[c][j] = lo;
-      t.hi[c][j] = hi;
-      t.h_max[c][j] = hm;
-    }
-  }
-}
-
-// The minimum-image distances of every column x and row y of the tile to each component's
-// mean x and y (dx: W x stride, dy: H x stride; 0 for padding), for the spatial sums.
-void tabulate_pixel_offsets(Tables& t, const SampleSet& s, const ProductMixture& mix) {
-  const std::size_t st = t.stride;
-  const detail::Periods periods = tile_periods(s);
-  t.dx.assign(std::size_t(s.width) * st, 0.0);
-  t.dy.assign(std::size_t(s.height) * st, 0.0);
-  for (std::size_t k = 0; k < t.m; ++k) {
-    const auto& mu = mix.mean[t.order[k]];
-    for (std::size_t x = 0; x < std::size_t(s.width); ++x)
-      t.dx[x * st + k] = detail::wrapped_difference(double(x) - mu[0], periods[0]);
-    for (std::size_t y = 0; y < std::size_t(s.height); ++y)
-      t.dy[y * st + k] = detail::wrapped_difference(double(y) - mu[1], periods[1]);
-  }
-}
-
-Tables make_tables(const SampleSet& s, const ProductMixture& mix) {
-  Tables t;
-  const std::size_t m_count = t.m = mix.size();
-  t.stride = (m_count + kLanes - 1) / kLanes * kLanes;
-  t.order = block_order(mix);
-  // A component whose log density is below the sample's maximum by more than this has
-  // q < e^-Delta; all of them together change the sum by less than M e^-Delta = e^-17.5
-  // relative, below float's resolution (2^-24 = e^-16.6).
-  t.skip_margin = float(std::log(double(m_count)) + 17.5);
-  tabulate_densities(t, s, mix);
-  tabulate_chunk_bounds(t, s);
-  tabulate_pixel_offsets(t, s, mix);
-  return t;
-}
-
-// Morton key of a colour (10 bits a channel over the box lo..hi).
-std::uint32_t colour_key(const float* rgb, const float lo[3], const float span[3]) {
-  std::uint32_t k = 0;
-  for (int c = 0; c < 3; ++c) {
-    const float u = span[c] > 0 ? (rgb[c] - lo[c]) / span[c] : 0.0f;
-    const auto q = std::uint32_t(std::clamp(u, 0.0f, 0.9999f) * 1024.0f);
-    for (int bit = 0; bit < 10; ++bit) k |= ((q >> bit) & 1u) << (3 * bit + c);
-  }
-  return k;
-}
-
-// The box of every process's residual colours from each one's (lo, hi).
-void colour_box_of_all(const SampleSet& s, float lo[3], float hi[3]) {
-  if (!s.processes) return;
-  const float mine[6] = {lo[0], lo[1], lo[2], hi[0], hi[1], hi[2]};
-  for (const std::vector<float>& r : all_gather_values<float>(*s.processes, mine))
-    for (int c = 0; c < 3; ++c) {
-      lo[c] = std::min(lo[c], r.at(std::size_t(c)));
-      hi[c] = std::max(hi[c], r.at(3 + std::size_t(c)));
-    }
-}
-
-// The views of every (pixel, light) block in the order of their residual colours (a Morton
-// key): the four samples of a group then have similar colours, so the components near one
-// of them are near all four and the skip of group_pass drops more vectors (on generated data
-// the live fraction falls from about 0.42 to 0.31). Grouping changes nothing but float
-// summation order, and the order is a function of the data alone. One byte a sample; sets of
-// more than 256 views keep their own order (empty result).
-std::vector<std::uint8_t> view_order(const SampleSet& s) {
-  const std::size_t nv = s.views, held = s.held_lights(), blocks = s.pixels() * held;
-  if (nv > 256 || nv < 2) return {};
-  const auto n = std::ptrdiff_t(blocks);
-  auto block = [&](std::ptrdiff_t b, float* r) {
-    s.block_residuals(std::size_t(b) / held, s.first_light + std::size_t(b) % held, r);
-  };
-  float lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
-#pragma omp parallel reduction(min : lo[:3]) reduction(max : hi[:3])
-  {
-    std::vector<float> r(nv * 3);
-#pragma omp for schedule(static)
-    for (std::ptrdiff_t b = 0; b < n; ++b) {
-      block(b, r.data());
-      for (std::size_t k = 0; k < nv * 3; ++k) {
-        lo[k % 3] = std::min(lo[k % 3], r[k]);
-        hi[k % 3] = std::max(hi[k % 3], r[k]);
-      }
-    }
-  }
-  colour_box_of_all(s, lo, hi);
-  const float span[3] = {hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]};
-  std::vector<std::uint8_t> order(s.size());
-#pragma omp parallel
-  {
-    std::vector<std::pair<std::uint32_t, std::uint8_t>> key(nv);
-    std::vector<float> r(nv * 3);
-#pragma omp for schedule(static)
-    for (std::ptrdiff_t b = 0; b < n; ++b) {
-      const std::size_t first = std::size_t(b) * nv;
-      block(b, r.data());
-      for (std::size_t v = 0; v < nv; ++v)
-        key[v] = {colour_key(&r[v * 3], lo, span), std::uint8_t(v)};
-      std::sort(key.begin(), key.end());
-      for (std::size_t v = 0; v < nv; ++v) order[first + v] = key[v].second;
-    }
-  }
-  return order;
-}
 
 // The block's views in colour order (view_order), or their own, into `views`.
 [[gnu::always_inline]] inline std::uint32_t* block_views(const SampleSet& s,
@@ -272,20 +92,50 @@ std::vector<std::uint8_t> view_order(const SampleSet& s) {
 // (q), the sums of q dx, q dx^2, q dy, q dy^2 (xy, 4 x stride; dx, dy the pixel's minimum-image
 // distance to the component's mean), sum q per view (qv, nv x stride), sum q d and q d^2 of
 // the colours (c1, c2, 3 x stride), and the samples' terms of L (ll).
+// Zeroed (and sized, the first time) by the thread that fills them, so that their pages are
+// that thread's; qv is only sized, its first flush (flush_views) writes it whole.
 struct ChunkStats {
   std::vector<double> q, xy, qv, c1, c2;
   double ll = 0.0;
-  ChunkStats(std::size_t views, std::size_t st)
-      : q(st, 0.0), xy(4 * st, 0.0), qv(views * st, 0.0), c1(3 * st, 0.0), c2(3 * st, 0.0) {}
-  void clear() {
-    for (auto* v : {&q, &xy, &qv, &c1, &c2}) std::fill(v->begin(), v->end(), 0.0);
+  void reset(std::size_t views, std::size_t st) {
+    q.assign(st, 0.0);
+    xy.assign(4 * st, 0.0);
+    qv.resize(views * st);
+    c1.assign(3 * st, 0.0);
+    c2.assign(3 * st, 0.0);
     ll = 0.0;
   }
 };
 
-// Per view, float holds the sums of at most this many pixels' responsibilities before they go
-// to double.
-constexpr std::size_t kViewFlush = 32;
+// Per view, float holds the sums of at most this many pixels' responsibilities (each at most
+// 1; a sum within 256 of float's 2^24) before they go to double: a chunk of up to 256 pixels
+// goes to double once.
+constexpr std::size_t kViewFlush = 256;
+
+// A light's pixels are cut into chunks of about kChunkPixels, at most kMaxChunks of them: a
+// function of the tile alone, so that the summation order is. Few chunks keep the per-view
+// sums' cost (nv x stride per chunk and light) small beside the blocks' on small tiles.
+constexpr std::size_t kChunkPixels = 256;
+constexpr std::size_t kMaxChunks = 16;
+std::size_t chunk_count(std::size_t pixels) {
+  return std::clamp<std::size_t>((pixels + kChunkPixels - 1) / kChunkPixels, 1, kMaxChunks);
+}
+
+// The (light, chunk) pairs the threads share between two meetings: whole lights, at least 64
+// pairs or eight per thread, within a memory bound for their statistics (kBatchBytes, at least
+// one pair per thread), the lights shared evenly among the batches. It changes when the threads
+// meet, never what is summed in which order.
+constexpr double kBatchBytes = 256.0 * 1024 * 1024;
+std::size_t light_batch(const SampleSet& s, std::size_t stride, std::size_t chunks, int threads) {
+  const double pair_bytes = double((s.views + 11) * stride * sizeof(double));
+  const auto fits = std::size_t(kBatchBytes / pair_bytes);
+  const auto wanted = std::max<std::size_t>(64, 8 * std::size_t(threads));
+  const std::size_t pairs = std::max(std::min(wanted, fits), std::size_t(threads));
+  const std::size_t held = s.held_lights();
+  const std::size_t most = std::clamp<std::size_t>((pairs + chunks - 1) / chunks, 1, held);
+  const std::size_t batches = (held + most - 1) / most;
+  return (held + batches - 1) / batches;
+}
 
 // The block's accumulators (float) into the chunk's statistics (double): sum q, and with the
 // pixel's distances dx, dy (stride each) the spatial sums.
@@ -293,63 +143,122 @@ constexpr std::size_t kViewFlush = 32;
                                                         const double* dy, const Workspace& w,
                                                         ChunkStats& cs) {
   const std::size_t st = t.stride;
+  const float* __restrict a0 = w.a0.data();
+  double* __restrict q = cs.q.data();
+  double* __restrict x1 = cs.xy.data();
+  double* __restrict x2 = x1 + st;
+  double* __restrict y1 = x1 + 2 * st;
+  double* __restrict y2 = x1 + 3 * st;
+#pragma omp simd
   for (std::size_t m = 0; m < st; ++m) {
-    const double q = double(w.a0[m]);
-    cs.q[m] += q;
-    cs.xy[m] += q * dx[m];
-    cs.xy[st + m] += q * dx[m] * dx[m];
-    cs.xy[2 * st + m] += q * dy[m];
-    cs.xy[3 * st + m] += q * dy[m] * dy[m];
+    const double qm = double(a0[m]);
+    q[m] += qm;
+    x1[m] += qm * dx[m];
+    x2[m] += qm * dx[m] * dx[m];
+    y1[m] += qm * dy[m];
+    y2[m] += qm * dy[m] * dy[m];
   }
+  const float* __restrict a1 = w.a1.data();
+  const float* __restrict a2 = w.a2.data();
+  double* __restrict c1 = cs.c1.data();
+  double* __restrict c2 = cs.c2.data();
+#pragma omp simd
   for (std::size_t k = 0; k < 3 * st; ++k) {
-    cs.c1[k] += double(w.a1[k]);
-    cs.c2[k] += double(w.a2[k]);
+    c1[k] += double(a1[k]);
+    c2[k] += double(a2[k]);
   }
 }
 
 // The per-view sums of the workspace (float) into the chunk's (double), and cleared.
-void flush_views(Workspace& w, ChunkStats& cs) {
-  for (std::size_t k = 0; k < w.qv.size(); ++k) cs.qv[k] += double(w.qv[k]);
-  std::fill(w.qv.begin(), w.qv.end(), 0.0f);
+// The first flush of a chunk writes the chunk's sums (0 + x = x, so no zeroing is needed).
+void flush_views(Workspace& w, ChunkStats& cs, bool first) {
+  double* __restrict to = cs.qv.data();
+  float* __restrict from = w.qv.data();
+  const std::size_t n = w.qv.size();
+  if (first) {
+#pragma omp simd
+    for (std::size_t k = 0; k < n; ++k) to[k] = double(from[k]);
+  } else {
+#pragma omp simd
+    for (std::size_t k = 0; k < n; ++k) to[k] += double(from[k]);
+  }
+  std::fill(from, from + n, 0.0f);
 }
 
-// The pixels of chunk c of light l: one (pixel, light) block each. Adds the sum of their
-// samples' terms of L to cs.ll; with `stats`, folds the responsibilities into cs.
+// The pixels of chunk c (of `chunks`) of light l: one (pixel, light) block each. Adds the sum
+// of their samples' terms of L to cs.ll; with `stats`, folds the responsibilities into cs.
 void chunk_pass(const SampleSet& s, const Tables& t, const std::vector<std::uint8_t>& order,
-                std::size_t l, std::size_t c, Workspace& w, bool stats, ChunkStats& cs) {
+                std::size_t l, std::size_t c, std::size_t chunks, Workspace& w, bool stats,
+                ChunkStats& cs) {
   const std::size_t pixels = s.pixels(), st = t.stride, width = std::size_t(s.width);
-  const std::size_t first = c * pixels / kChunks, last = (c + 1) * pixels / kChunks;
+  const std::size_t first = c * pixels / chunks, last = (c + 1) * pixels / chunks;
   if (stats) std::fill(w.qv.begin(), w.qv.end(), 0.0f);
   for (std::size_t p = first; p < last; ++p) {
     block_pass(s, t, order, p, l, w, stats, cs.ll);
     if (!stats) continue;
     add_block_statistics(t, &t.dx[(p % width) * st], &t.dy[(p / width) * st], w, cs);
-    if ((p - first + 1) % kViewFlush == 0 || p + 1 == last) flush_views(w, cs);
+    if ((p - first + 1) % kViewFlush == 0 || p + 1 == last)
+      flush_views(w, cs, p - first < kViewFlush);
+  }
+}
+
+// The chunks' statistics added in chunk order into the first: 0 + c0 + c1 + ... = c0 + c1 + ...
+// in floating point, so no zeroed sum is needed.
+ChunkStats& reduce_chunks(std::span<ChunkStats> chunks) {
+  ChunkStats& sum = chunks.front();
+  auto add = [](std::vector<double>& to, const std::vector<double>& from) {
+    double* __restrict a = to.data();
+    const double* __restrict b = from.data();
+#pragma omp simd
+    for (std::size_t k = 0; k < to.size(); ++k) a[k] += b[k];
+  };
+  for (const ChunkStats& c : chunks.subspan(1)) {
+    add(sum.q, c.q);
+    add(sum.xy, c.xy);
+    add(sum.qv, c.qv);
+    add(sum.c1, c.c1);
+    add(sum.c2, c.c2);
+    sum.ll += c.ll;
+  }
+  return sum;
+}
+
+// The shifted sums of a view angle (n = 4: alpha_v, 5: beta_v; neither wraps) of every table
+// column over the views, from the per-view sums qv (nv x stride): s1 += sum_v qv (a_v - mu),
+// s2 += sum_v qv (a_v - mu)^2, views in order.
+void view_angle_sums(const SampleSet& s, const Tables& t, const ProductMixture& mix, int n,
+                     const double* qv, double* __restrict s1, double* __restrict s2) {
+  const std::size_t st = t.stride;
+  std::vector<double> mu(st, 0.0);
+  for (std::size_t k = 0; k < t.m; ++k) mu[k] = mix.mean[t.order[k]][std::size_t(n)];
+  for (std::size_t v = 0; v < s.views; ++v) {
+    const double a = s.view_ab[v][std::size_t(n - 4)];
+    const double* __restrict q = qv + v * st;
+#pragma omp simd
+    for (std::size_t k = 0; k < st; ++k) {
+      const double d = a - mu[k];
+      s1[k] += q[k] * d;
+      s2[k] += q[k] * d * d;
+    }
   }
 }
 
 // What one light contributes to the sufficient statistics of the M-step, from its chunks'
-// (reduced in chunk order): kLightValues numbers, L's terms first, then per component (in the
-// mixture's order) sum q, the nine sums of q (x - mu_old) and the nine of q (x - mu_old)^2
-// (x, y as accumulated; the angles from this light and the views; the colours as accumulated).
+// (reduced in chunk order, into the first): kLightValues numbers, L's terms first, then per
+// component (in the mixture's order) sum q, the nine sums of q (x - mu_old) and the nine of
+// q (x - mu_old)^2 (x, y as accumulated; the angles from this light and the views; the
+// colours as accumulated).
 constexpr std::size_t kPerComponent = 1 + 2 * kVariables;
-// `qv`: the chunks' per-view sums, already reduced (sum_views).
 std::vector<double> light_statistics(const SampleSet& s, const Tables& t, const ProductMixture& mix,
-                                     std::size_t l, const std::vector<ChunkStats>& chunks,
-                                     const std::vector<double>& qv) {
+                                     std::size_t l, std::span<ChunkStats> chunks,
+                                     const Periods& periods) {
   const std::size_t st = t.stride;
-  ChunkStats sum(0, st);
-  sum.qv = qv;
-  for (const ChunkStats& c : chunks) {
-    for (std::size_t k = 0; k < st; ++k) sum.q[k] += c.q[k];
-    for (std::size_t k = 0; k < sum.xy.size(); ++k) sum.xy[k] += c.xy[k];
-    for (std::size_t k = 0; k < sum.c1.size(); ++k) sum.c1[k] += c.c1[k];
-    for (std::size_t k = 0; k < sum.c2.size(); ++k) sum.c2[k] += c.c2[k];
-    sum.ll += c.ll;
-  }
+  const ChunkStats& sum = reduce_chunks(chunks);
+  std::vector<double> views(4 * st, 0.0);  // alpha_v: s1, s2; beta_v: s1, s2
+  view_angle_sums(s, t, mix, 4, sum.qv.data(), &views[0], &views[st]);
+  view_angle_sums(s, t, mix, 5, sum.qv.data(), &views[2 * st], &views[3 * st]);
   std::vector<double> out(1 + t.m * kPerComponent, 0.0);
   out[0] = sum.ll;
-  const detail::Periods periods = tile_periods(s);
   for (std::size_t k = 0; k < t.m; ++k) {
     const std::size_t m = t.order[k];  // table column k holds component m
     double* o = &out[1 + m * kPerComponent];
@@ -368,9 +277,9 @@ std::vector<double> light_statistics(const SampleSet& s, const Tables& t, const 
     s2[1] = sum.xy[3 * st + k];
     add(2, sum.q[k], s.light_ab[l][0]);
     add(3, sum.q[k], s.light_ab[l][1]);
-    for (std::size_t v = 0; v < s.views; ++v) {
-      add(4, sum.qv[v * st + k], s.view_ab[v][0]);
-      add(5, sum.qv[v * st + k], s.view_ab[v][1]);
+    for (int n = 4; n < 6; ++n) {
+      s1[n] = views[std::size_t(2 * (n - 4)) * st + k];
+      s2[n] = views[std::size_t(2 * (n - 4) + 1) * st + k];
     }
     for (int c = 0; c < 3; ++c) {
       s1[6 + c] = sum.c1[std::size_t(c) * st + k];
@@ -380,65 +289,97 @@ std::vector<double> light_statistics(const SampleSet& s, const Tables& t, const 
   return out;
 }
 
-// The chunks' per-view sums reduced in chunk order into qv, shared among the threads of the
-// E pass (an orphaned worksharing loop: called by every thread of its parallel region).
-void sum_views(const std::vector<ChunkStats>& chunks, std::vector<double>& qv) {
-  const auto n = std::ptrdiff_t(qv.size());
-#pragma omp for schedule(static)
-  for (std::ptrdiff_t k = 0; k < n; ++k) {
-    double a = 0.0;
-    for (const ChunkStats& c : chunks) a += c.qv[std::size_t(k)];
-    qv[std::size_t(k)] = a;
-  }
+// L's terms of one light alone (the E pass without statistics): its chunks' in chunk order.
+std::vector<double> light_log_likelihood(std::span<const ChunkStats> chunks) {
+  double ll = 0.0;
+  for (const ChunkStats& c : chunks) ll += c.ll;
+  return {ll};
 }
 
-// One E pass, Eq. (2)-(4), over the lights this process holds, light by light, each in
-// kChunks chunks of pixels: returns each light's statistics (light_statistics; with `stats`
-// false, L's terms alone). Accumulation: float within a (pixel, light) block of nv samples
-// (and per view over kViewFlush pixels), double beyond, in a fixed order per chunk and light,
-// so the result depends on neither the threads nor the processes.
-std::vector<std::vector<double>> e_pass(const SampleSet& s, const Tables& t,
-                                        const ProductMixture& mix,
-                                        const std::vector<std::uint8_t>& order, int threads,
-                                        bool stats) {
-  std::vector<std::vector<double>> lights;
-  std::vector<ChunkStats> chunks(kChunks, ChunkStats(stats ? s.views : 0, stats ? t.stride : 0));
-  std::vector<double> qv(stats ? s.views * t.stride : 0);
+// What the threads of the E pass share: the problem, how it is cut (chunk_count, light_batch),
+// the statistics of a batch's (light, chunk) pairs, the lights' results, the first failure.
+struct EPass {
+  const SampleSet& s;
+  const Tables& t;
+  const ProductMixture& mix;
+  const std::vector<std::uint8_t>& order;
+  const Periods& periods;
+  const bool stats;
+  const std::size_t chunks, batch;
+  std::vector<ChunkStats> pairs;            // batch x chunks, light-major
+  std::vector<std::vector<double>> lights;  // per light held
   std::exception_ptr failure;
   std::atomic<bool> failed{false};
+
+  EPass(const SampleSet& s_, const Tables& t_, const ProductMixture& mix_,
+        const std::vector<std::uint8_t>& order_, const Periods& periods_, bool stats_, int threads)
+      : s(s_),
+        t(t_),
+        mix(mix_),
+        order(order_),
+        periods(periods_),
+        stats(stats_),
+        chunks(chunk_count(s_.pixels())),
+        batch(light_batch(s_, t_.stride, chunks, threads)),
+        pairs(batch * chunks),
+        lights(s_.held_lights()) {}
+
+  // Runs f, keeping the first exception of any thread (the loops then skip their work).
+  template <typename F>
+  void guarded(F&& f) {
+    if (failed.load()) return;
+    try {
+      f();
+    } catch (...) {
+#pragma omp critical(btfgmm_em_failure)
+      if (!failure) failure = std::current_exception();
+      failed = true;
+    }
+  }
+
+  // The lights [first, first + n) of one batch, by the calling thread's share of the team's
+  // work (orphaned worksharing loops: called by every thread of the parallel region): each
+  // (light, chunk) pair, then each light's statistics from its chunks.
+  void run_batch(std::size_t first, std::size_t n, Workspace& w) {
+    const auto n_pairs = std::ptrdiff_t(n * chunks);
+#pragma omp for schedule(dynamic, 1)
+    for (std::ptrdiff_t i = 0; i < n_pairs; ++i)
+      guarded([&] {
+        ChunkStats& cs = pairs[std::size_t(i)];
+        cs.reset(stats ? s.views : 0, stats ? t.stride : 0);
+        chunk_pass(s, t, order, first + std::size_t(i) / chunks, std::size_t(i) % chunks, chunks, w,
+                   stats, cs);
+      });
+#pragma omp for schedule(dynamic, 1)
+    for (std::ptrdiff_t j = 0; j < std::ptrdiff_t(n); ++j)
+      guarded([&] {
+        const std::size_t l = first + std::size_t(j);
+        const std::span<ChunkStats> mine(&pairs[std::size_t(j) * chunks], chunks);
+        lights[l - s.first_light] =
+            stats ? light_statistics(s, t, mix, l, mine, periods) : light_log_likelihood(mine);
+      });
+  }
+};
+
+// One E pass, Eq. (2)-(4), over the lights this process holds, each in chunk_count() chunks of
+// pixels: returns each light's statistics (light_statistics; with `stats` false, L's terms
+// alone). Accumulation: float within a (pixel, light) block of nv samples (and per view over
+// kViewFlush pixels), double beyond, in a fixed order per chunk and light, so the result
+// depends on neither the threads nor the processes.
+std::vector<std::vector<double>> e_pass(const SampleSet& s, const Tables& t,
+                                        const ProductMixture& mix,
+                                        const std::vector<std::uint8_t>& order,
+                                        const Periods& periods, int threads, bool stats) {
+  EPass e(s, t, mix, order, periods, stats, threads);
 #pragma omp parallel num_threads(threads)
   {
     const detail::FlushDenormals flush;
     Workspace w(t.stride, s.views, kGroup);
-    for (std::size_t l = s.first_light; l < s.light_end(); ++l) {
-#pragma omp for schedule(dynamic, 1)
-      for (std::size_t c = 0; c < kChunks; ++c) {
-        if (failed.load()) continue;
-        try {
-          chunks[c].clear();
-          chunk_pass(s, t, order, l, c, w, stats, chunks[c]);
-        } catch (...) {
-#pragma omp critical(btfgmm_em_failure)
-          if (!failure) failure = std::current_exception();
-          failed = true;
-        }
-      }
-      if (stats) sum_views(chunks, qv);
-#pragma omp single
-      {
-        if (failed.load()) {
-        } else if (stats) {
-          lights.push_back(light_statistics(s, t, mix, l, chunks, qv));
-        } else {
-          double ll = 0.0;
-          for (const ChunkStats& c : chunks) ll += c.ll;
-          lights.push_back({ll});
-        }
-      }
-    }
+    for (std::size_t l = s.first_light; l < s.light_end(); l += e.batch)
+      e.run_batch(l, std::min(e.batch, s.light_end() - l), w);
   }
-  if (failure) std::rethrow_exception(failure);
-  return lights;
+  if (e.failure) std::rethrow_exception(e.failure);
+  return std::move(e.lights);
 }
 
 // The statistics of every light, from every process, added in light order: L of Eq. (3) and
@@ -449,26 +390,43 @@ struct Combined {
   explicit Combined(std::size_t m) : ss(m) {}
 };
 
-Combined combine(const SampleSet& s, std::size_t m_count, bool stats,
-                 const std::vector<std::vector<double>>& mine) {
+// Every process's lights in order (the processes in rank order hold the lights in order), each
+// light's numbers `per` apart (one process: a vector per light).
+std::vector<const double*> lights_in_order(const std::vector<std::vector<double>>& all,
+                                           std::size_t per) {
+  std::vector<const double*> out;
+  for (const std::vector<double>& r : all)
+    for (std::size_t at = 0; at + per <= r.size(); at += per) out.push_back(&r[at]);
+  return out;
+}
+
+// Every light's statistics, this process's and, over processes, the others' (gathered).
+std::vector<std::vector<double>> all_lights(const SampleSet& s,
+                                            std::vector<std::vector<double>>&& mine) {
+  if (!s.processes) return std::move(mine);
   std::vector<double> flat;
   for (const auto& l : mine) flat.insert(flat.end(), l.begin(), l.end());
-  SingleProcess alone;
-  Communicator& processes = s.processes ? *s.processes : alone;
-  const auto all = all_gather_values<double>(processes, std::span<const double>(flat));
-  const std::size_t per = stats ? 1 + m_count * kPerComponent : 1;
+  return all_gather_values<double>(*s.processes, std::span<const double>(flat));
+}
+
+Combined combine(const SampleSet& s, std::size_t m_count, bool stats,
+                 std::vector<std::vector<double>>&& mine, int threads) {
+  const auto all = all_lights(s, std::move(mine));
+  const std::vector<const double*> lights =
+      lights_in_order(all, stats ? 1 + m_count * kPerComponent : 1);
   Combined out(m_count);
-  for (const std::vector<double>& r : all) {  // processes in order hold the lights in order
-    for (std::size_t at = 0; at + per <= r.size(); at += per) {
-      out.log_likelihood += r[at];
-      if (!stats) continue;
-      for (std::size_t m = 0; m < m_count; ++m) {
-        const double* o = &r[at + 1 + m * kPerComponent];
-        out.ss.s0[m] += o[0];
-        for (std::size_t n = 0; n < std::size_t(kVariables); ++n) {
-          out.ss.s1[m][n] += o[1 + n];
-          out.ss.s2[m][n] += o[1 + kVariables + n];
-        }
+  for (const double* r : lights) out.log_likelihood += r[0];
+  if (!stats) return out;
+    // Each component's sums over the lights in light order, the components over the threads.
+#pragma omp parallel for num_threads(threads) schedule(static)
+  for (std::ptrdiff_t mi = 0; mi < std::ptrdiff_t(m_count); ++mi) {
+    const auto m = std::size_t(mi);
+    for (const double* r : lights) {
+      const double* o = r + 1 + m * kPerComponent;
+      out.ss.s0[m] += o[0];
+      for (std::size_t n = 0; n < std::size_t(kVariables); ++n) {
+        out.ss.s1[m][n] += o[1 + n];
+        out.ss.s2[m][n] += o[1 + kVariables + n];
       }
     }
   }
@@ -491,10 +449,36 @@ bool asked_to_stop(const SampleSet& s, const EmConfig& config) {
 
 // L of Eq. (3) of `mix` over every process's samples.
 double log_likelihood_of(const SampleSet& s, const ProductMixture& mix,
-                         const std::vector<std::uint8_t>& order, int threads) {
-  const Tables t = make_tables(s, mix);
-  return combine(s, mix.size(), false, e_pass(s, t, mix, order, threads, false)).log_likelihood /
+                         const std::vector<std::uint8_t>& order, const Periods& periods,
+                         int threads) {
+  const Tables t = detail::make_tables(s, mix, periods, threads);
+  return combine(s, mix.size(), false, e_pass(s, t, mix, order, periods, threads, false), threads)
+             .log_likelihood /
          double(s.size());
+}
+
+double seconds_from(Clock::time_point t) {
+  return std::chrono::duration<double>(Clock::now() - t).count();
+}
+
+// One iteration: the tables, Eq. (2) in parts; Eq. (3)-(4) over this process's lights, every
+// process's statistics added in light order; the M-step, Eq. (5)-(7). Returns L of the
+// parameters it started from; adds the time of each stage to `stages`.
+double em_iteration(const SampleSet& s, ProductMixture& mix, const EmConfig& config,
+                    const std::vector<std::uint8_t>& order, int threads, EmResult& result) {
+  const Periods periods = detail::tile_periods(s, config.tile_wraps);
+  auto at = Clock::now();
+  const Tables t = detail::make_tables(s, mix, periods, threads);
+  result.stages.tables += seconds_from(at);
+  at = Clock::now();
+  auto lights = e_pass(s, t, mix, order, periods, threads, true);
+  result.stages.e_pass += seconds_from(at);
+  at = Clock::now();
+  const Combined c = combine(s, mix.size(), true, std::move(lights), threads);
+  result.dropped += detail::m_step(mix, c.ss, double(s.size()), config.variance_floor,
+                                   config.min_component_samples, periods);
+  result.stages.m_step += seconds_from(at);
+  return c.log_likelihood / double(s.size());
 }
 
 }  // namespace
@@ -508,41 +492,37 @@ EmResult fit_em(const SampleSet& s, ProductMixture& mix, const EmConfig& config,
   const auto t0 = Clock::now() - std::chrono::duration_cast<Clock::duration>(
                                      std::chrono::duration<double>(before));
   const int threads = resolve_threads(config.threads);
-  const std::vector<std::uint8_t> order = view_order(s);
+  const std::vector<std::uint8_t> order = detail::view_order(s);
   EmResult result;
   if (resume) {
     result = *resume;
     result.interrupted = false;
   }
   for (int it = result.iterations + 1; it <= config.max_iterations && !result.converged; ++it) {
-    const Tables t = make_tables(s, mix);  // Eq. (2) in parts
-    // Eq. (3)-(4) over this process's lights; every process's statistics added in light
-    // order.
-    const Combined c = combine(s, mix.size(), true, e_pass(s, t, mix, order, threads, true));
-    // M-step, Eq. (5)-(7).
-    result.dropped += detail::m_step(mix, c.ss, double(s.size()), config.variance_floor,
-                                     config.min_component_samples, tile_periods(s));
+    const double ll = em_iteration(s, mix, config, order, threads, result);
     // Stop test: the gain of L (record_iteration), or a stop from outside (the state so far,
     // to resume from).
-    detail::record_iteration(result, c.log_likelihood / double(s.size()), it, config, mix.size(),
-                             t0, progress);
+    detail::record_iteration(result, ll, it, config, mix.size(), t0, progress);
     if (after_iteration) after_iteration(mix, result);
     if (asked_to_stop(s, config) && it < config.max_iterations && !result.converged) {
       result.interrupted = true;
       return result;
     }
   }
-  result.final_log_likelihood = config.final_log_likelihood
-                                    ? log_likelihood_of(s, mix, order, threads)
-                                    : std::numeric_limits<double>::quiet_NaN();
+  result.final_log_likelihood =
+      config.final_log_likelihood
+          ? log_likelihood_of(s, mix, order, detail::tile_periods(s, config.tile_wraps), threads)
+          : std::numeric_limits<double>::quiet_NaN();
   return result;
 }
 
-double mean_log_likelihood(const SampleSet& s, const ProductMixture& mix, int threads) {
+double mean_log_likelihood(const SampleSet& s, const ProductMixture& mix, int threads,
+                           bool tile_wraps) {
   EmConfig c;
   c.threads = threads;
   detail::check_em_input(s.size(), mix, c);
-  return log_likelihood_of(s, mix, view_order(s), resolve_threads(threads));
+  return log_likelihood_of(s, mix, detail::view_order(s), detail::tile_periods(s, tile_wraps),
+                           resolve_threads(threads));
 }
 
 }  // namespace btfgmm

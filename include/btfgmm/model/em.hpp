@@ -26,8 +26,8 @@ EmResult fit_em(const SampleSet& samples, ProductMixture& mixture, const EmConfi
                 const EmStateCallback& after_iteration = {});
 
 // L of Eq. (3), the mean log-likelihood of the sample set under `mixture`, by fit_em's E pass
-// (`threads` 0: all cores).
-double mean_log_likelihood(const SampleSet& samples, const ProductMixture& mixture,
-                           int threads = 0);
+// (`threads` 0: all cores; `tile_wraps` as EmConfig's).
+double mean_log_likelihood(const SampleSet& samples, const ProductMixture& mixture, int threads = 0,
+                           bool tile_wraps = true);
 
 }  // namespace btfgmm

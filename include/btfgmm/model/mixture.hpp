@@ -66,6 +66,10 @@ struct EmConfig {
   // After the last iteration, one more E pass (without statistics) gives L of the returned
   // parameters (EmResult::final_log_likelihood); off, that field is NaN.
   bool final_log_likelihood = true;
+  // x and y wrap around the tile (docs/ALGORITHM.md, "The tile wraps"), as every evaluator of
+  // a model assumes. Off, EM fits the paper's plain model, unwrapped; only to compare with
+  // other implementations of that model (bench_fit beside Armadillo's gmm_diag).
+  bool tile_wraps = true;
 };
 
 // One EM iteration as it finished: L of Eq. (3) for the parameters the iteration started
@@ -81,6 +85,13 @@ struct EmProgress {
 };
 using EmCallback = std::function<void(const EmProgress&)>;
 
+// Where an EM run's time went, summed over its iterations (seconds, wall clock): the tables of
+// Eq. (2), the E pass (Eq. 3-4 and the statistics of each light), and the rest (the lights'
+// statistics combined and the M-step, Eq. 5-7). Not kept in checkpoints.
+struct EmStageSeconds {
+  double tables = 0.0, e_pass = 0.0, m_step = 0.0;
+};
+
 struct EmResult {
   std::vector<double> log_likelihood;     // L per iteration (before its M-step)
   std::vector<double> seconds;            // per iteration: EmProgress::seconds at its end
@@ -90,6 +101,7 @@ struct EmResult {
   std::size_t dropped = 0;
   bool converged = false;    // stopped by epsilon
   bool interrupted = false;  // stopped by EmConfig::stop; resume from the returned state
+  EmStageSeconds stages;
 };
 
 }  // namespace btfgmm
