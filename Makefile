@@ -25,13 +25,14 @@ demo: build
 test: build
 	@cd $(BUILD) && ctest --output-on-failure -j$(JOBS)
 
-# Speed and memory against Armadillo's gmm_diag, then the paper's full workload (64 x 64 tile,
-# M = 600, 40 iterations) and the decoding of its model, then rendering, then the kernels
-# alone (Google Benchmark), then the comparison methods (PCA BTF against numpy's SVD, every
-# method's decoding). Minutes;
-# docs/BENCHMARKS.md keeps the figures.
+# Speed and memory against Armadillo's gmm_diag (one thread and all; the thread scaling), then
+# the paper's full workload (64 x 64 tile, M = 600, 40 iterations) and the decoding of its
+# model, then rendering, then the kernels alone (Google Benchmark), then the comparison
+# methods (PCA BTF against numpy's SVD, every method's decoding). Minutes; docs/BENCHMARKS.md
+# keeps the figures. bench/bench-em-history.sh (not run here: it builds an earlier revision)
+# times an EM iteration beside an earlier revision's.
 bench: build
-	@$(BUILD)/bench_fit --tile 12 --components 600 --iterations 5
+	@$(BUILD)/bench_fit --tile 12 --components 600 --iterations 5 --threads 1,0 --scaling
 	@$(BUILD)/bench_fit --size 64 --tile 64 --components 600 --iterations 40 --no-peer \
 		--save $(BUILD)/bench-64.btfgmm
 	@$(BUILD)/bench_fit --decode $(BUILD)/bench-64.btfgmm
