@@ -24,12 +24,16 @@ namespace btfgmm::detail {
 
 std::vector<std::uint8_t> to_levels(std::span<const float> rgb) {
   std::vector<std::uint8_t> px(rgb.size());
-  // floor(v + 0.5) in double is exact for a float v in [0, 255]: lround's rounding (halves
-  // away from zero), vectorised.
-  for (std::size_t i = 0; i < rgb.size(); ++i) {
-    const float v = rgb[i];
-    px[i] =
-        v >= 0.0f ? static_cast<std::uint8_t>(std::floor(double(std::min(v, 255.0f)) + 0.5)) : 0;
+  const float* in = rgb.data();
+  std::uint8_t* out = px.data();
+  const std::ptrdiff_t n = std::ptrdiff_t(rgb.size());
+  // NaN and negatives become 0; v + 0.5 in double is exact for a float v in [0, 255], and
+  // truncated it is lround's rounding (halves away from zero).
+#pragma omp simd
+  for (std::ptrdiff_t i = 0; i < n; ++i) {
+    float v = in[i] > 0.0f ? in[i] : 0.0f;
+    v = v < 255.0f ? v : 255.0f;
+    out[i] = static_cast<std::uint8_t>(static_cast<int>(double(v) + 0.5));
   }
   return px;
 }
