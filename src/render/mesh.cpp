@@ -34,18 +34,20 @@ using detail::length;
 
 // A grid of (nu + 1) x (nv + 1) vertices from a parametric surface, two triangles per cell,
 // counter-clockwise seen from the side the normal points to when (u, v) is right-handed.
+// The vertices are computed in parallel (`at` must be a pure function: the cloth's takes a
+// few hundred operations a vertex).
 template <class F>
 Mesh grid_mesh(int nu, int nv, F&& at) {
   Mesh m;
+  const std::size_t row = std::size_t(nu) + 1, count = row * (std::size_t(nv) + 1);
+  m.position.resize(count);
+  m.normal.resize(count);
+  m.uv.resize(count);
+#pragma omp parallel for schedule(static)
   for (int j = 0; j <= nv; ++j)
     for (int i = 0; i <= nu; ++i) {
-      const double s = double(i) / nu, t = double(j) / nv;
-      Vec3 p, n;
-      std::array<double, 2> uv{};
-      at(s, t, p, n, uv);
-      m.position.push_back(p);
-      m.normal.push_back(n);
-      m.uv.push_back(uv);
+      const std::size_t k = std::size_t(j) * row + std::size_t(i);
+      at(double(i) / nu, double(j) / nv, m.position[k], m.normal[k], m.uv[k]);
     }
   auto id = [&](int i, int j) { return std::uint32_t(j * (nu + 1) + i); };
   for (int j = 0; j < nv; ++j)
