@@ -34,8 +34,8 @@ using detail::length;
 
 // A grid of (nu + 1) x (nv + 1) vertices from a parametric surface, two triangles per cell,
 // counter-clockwise seen from the side the normal points to when (u, v) is right-handed.
-// The vertices are computed in parallel (`at` must be a pure function: the cloth's takes a
-// few hundred operations a vertex).
+// The vertices are computed in parallel, rows handed out as threads come free (`at` must be a
+// pure function: the cloth's takes a few hundred operations a vertex).
 template <class F>
 Mesh grid_mesh(int nu, int nv, F&& at) {
   Mesh m;
@@ -43,7 +43,7 @@ Mesh grid_mesh(int nu, int nv, F&& at) {
   m.position.resize(count);
   m.normal.resize(count);
   m.uv.resize(count);
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(dynamic, 8)
   for (int j = 0; j <= nv; ++j)
     for (int i = 0; i <= nu; ++i) {
       const std::size_t k = std::size_t(j) * row + std::size_t(i);
