@@ -1,19 +1,18 @@
 // 8-bit RGB PNG encoding through zlib (codecs.hpp): the rows filtered by "up" (each byte less
 // the byte above it; the first row unfiltered), deflated with run-length matches only (zlib's
 // Z_RLE), in bands of rows compressed side by side by the threads. Run-length matches reach
-// one byte back and never across a band, so the bands lose nothing by being compressed apart;
+// one byte back, so the bands lose almost nothing by being compressed apart (a run cut at a
+// band's end, a few bytes of flush and code tables a band);
 // they are joined into one zlib stream as pigz joins its blocks (each band but the last ends
 // on a byte boundary by a sync flush; the Adler-32 sums combined).
 //
 // Rendered pictures (a background of one colour, smooth shading) come out about a third
 // smaller than stb_image_write's default and several times faster (docs/BENCHMARKS.md).
 #include <fmt/format.h>
-#include <omp.h>
 #include <zlib.h>
 
 #include <algorithm>
 #include <array>
-#include <cmath>
 #include <cstring>
 #include <string>
 
@@ -101,11 +100,11 @@ std::vector<std::uint8_t> encode_png(int width, int height, std::span<const floa
                                      const std::string& name) {
   const std::vector<std::uint8_t> px = to_levels(rgb);
   const std::size_t row_bytes = std::size_t(width) * 3, h = std::size_t(height);
-  // Bands of at least 32 rows, one a thread.
-  const std::size_t bands =
-      std::clamp<std::size_t>(h / 32, 1, std::size_t(std::max(1, omp_get_max_threads())));
+  // Bands of at least 100 rows, at most 8: as many whatever the threads, so that the file's
+  // bytes do not depend on the machine.
+  const std::size_t bands = std::clamp<std::size_t>(h / 100, 1, 8);
   std::vector<Band> band(bands);
-#pragma omp parallel for schedule(static, 1) if (bands > 1)
+#pragma omp parallel for schedule(dynamic, 1) if (bands > 1)
   for (std::ptrdiff_t k = 0; k < std::ptrdiff_t(bands); ++k) {
     const std::size_t b = std::size_t(k);
     band[b] = deflate_band(px, row_bytes, {h * b / bands, h * (b + 1) / bands}, b + 1 == bands);
