@@ -5,6 +5,13 @@
 //
 //   bench_render [--model FILE] [--size N] [--components M] [--threads T] [--runs R]
 //                [--tolerance LEVELS] [--no-full]
+//   bench_render --stages OUT.png --model FILE [--size N] [--threads T]
+//
+// --stages times, once and in a fresh process, each stage of what `btfgmm render FILE -o
+// OUT.png` does (the command's defaults: a sphere, light 45,30, camera 60,0): loading the
+// model, building the mesh, the geometry pass, the evaluator's set-up, the model, composing,
+// writing the PNG; with the time from the process's start to main() (the loader) before them.
+// The first run of each stage is what a whole process pays (thread pool, page faults).
 //
 // Without --model, a model is fitted first (printed with its fit time): a generated 32 x 32
 // corduroy, a 16 x 16 tile, 47 x 47 directions (rings of 0, 20, 40, 60, 80 degrees), M
@@ -15,6 +22,7 @@
 // costs, the paper's count); "evaluated" are those done after skipping the components whose
 // bound proves them negligible (--tolerance, levels; 0 evaluates all of them).
 #include <omp.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <chrono>
@@ -22,7 +30,11 @@
 #include <cstdlib>
 #include <cstring>
 #include <ctime>
+#include <memory>
+#include <stdexcept>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include "bench_clock.hpp"
 #include "btfgmm/btfgmm.hpp"
@@ -41,8 +53,72 @@ struct Options {
   int size = 800, threads = 0, runs = 5;
   std::size_t components = 600;
   double tolerance = 0.1;
-  bool full = true;  // also with tolerance 0 (every component)
+  bool full = true;    // also with tolerance 0 (every component)
+  std::string stages;  // --stages: the PNG to write
 };
+
+// Seconds since the process started (its start time from /proc/self/stat, in clock ticks
+// after boot, against the boot time), or -1 where that is not known.
+double since_process_start() {
+  std::FILE* f = std::fopen("/proc/self/stat", "r");
+  if (!f) return -1;
+  char buf[1024] = {};
+  const std::size_t n = std::fread(buf, 1, sizeof buf - 1, f);
+  std::fclose(f);
+  const char* p = std::strrchr(buf, ')');
+  if (n == 0 || !p) return -1;
+  unsigned long long start = 0;
+  int field = 2;  // after ')' comes field 3
+  for (const char* q = p + 1; *q && field < 22; ++q)
+    if (*q == ' ' && ++field == 22) start = std::strtoull(q + 1, nullptr, 10);
+  timespec up{};
+  clock_gettime(CLOCK_BOOTTIME, &up);
+  return double(up.tv_sec) + 1e-9 * double(up.tv_nsec) -
+         double(start) / double(sysconf(_SC_CLK_TCK));
+}
+
+// What `btfgmm render MODEL -o OUT.png` does, stage by stage, each once (cold).
+void process_stages(const Options& o) {
+  const double startup = since_process_start();
+  const double c0 = cpu_now();
+  double t = now();
+  std::vector<std::pair<const char*, double>> st;
+  auto lap = [&](const char* name) {
+    const double u = now();
+    st.emplace_back(name, u - t);
+    t = u;
+  };
+  const std::shared_ptr<const btfgmm::Representation> model = btfgmm::load_representation(o.model);
+  lap("load model");
+  const btfgmm::Mesh mesh = btfgmm::make_mesh("sphere");
+  const btfgmm::Camera camera = btfgmm::Camera::orbit({60, 0}, mesh.radius(), mesh.center(), 30);
+  const btfgmm::Light light = btfgmm::Light::directional({45, 30}, 1.0);
+  lap("mesh and camera");
+  btfgmm::RenderSettings s;
+  s.width = s.height = o.size;
+  const btfgmm::ModelFrame& frame = model->frame();
+  const btfgmm::SurfaceBuffer sb =
+      btfgmm::rasterize(mesh, camera, light, s, frame.width, frame.height);
+  lap("geometry");
+  const btfgmm::RepresentationEvaluator ev(model, s.tolerance);
+  lap("evaluator set-up");
+  std::vector<float> rgb(sb.points.size() * 3);
+  ev.evaluate(sb.points, rgb, sb.block_start);
+  lap("model");
+  const btfgmm::Rendering img = btfgmm::compose(sb, rgb, s, frame.format);
+  lap("compose");
+  btfgmm::write_picture(o.stages, img.width, img.height, img.rgb);
+  lap("write PNG");
+  double total = 0;
+  std::printf("%dx%d, %zu lit pixels, %d threads\n", o.size, o.size, sb.points.size(),
+              omp_get_max_threads());
+  std::printf("  %-18s %.4f s\n", "start-up to main", startup);
+  for (const auto& [name, sec] : st) {
+    std::printf("  %-18s %.4f s\n", name, sec);
+    total += sec;
+  }
+  std::printf("  %-18s %.4f s (CPU %.4f s)\n", "main's stages", total, cpu_now() - c0);
+}
 
 btfgmm::BtfModel fitted_model(const Options& o) {
   btfgmm::GenerateConfig g;
@@ -132,15 +208,23 @@ int main(int argc, char** argv) {
       o.tolerance = std::atof(next().c_str());
     else if (a == "--no-full")
       o.full = false;
+    else if (a == "--stages")
+      o.stages = next();
     else {
       std::fprintf(stderr,
                    "usage: bench_render [--model FILE] [--size N] [--components M] [--threads T] "
-                   "[--runs R] [--tolerance LEVELS] [--no-full]\n");
+                   "[--runs R] [--tolerance LEVELS] [--no-full]\n"
+                   "       bench_render --stages OUT.png --model FILE [--size N] [--threads T]\n");
       return 2;
     }
   }
   if (o.threads > 0) omp_set_num_threads(o.threads);
   try {
+    if (!o.stages.empty()) {
+      if (o.model.empty()) throw std::runtime_error("--stages needs --model");
+      process_stages(o);
+      return 0;
+    }
     const btfgmm::BtfModel model = o.model.empty() ? fitted_model(o) : btfgmm::load_model(o.model);
     std::printf("model: %s, %dx%d tile, %zu x %zu directions, M = %zu; %d threads\n",
                 o.model.empty() ? "(fitted above)" : o.model.c_str(), model.width, model.height,

@@ -16,6 +16,8 @@
 #include <numbers>
 #include <random>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include "btfgmm/btfgmm.hpp"
 #include "btfgmm/core/interpolation.hpp"
@@ -102,6 +104,43 @@ TEST(Mesh, BuiltInFramesAreOrthonormalAndRightHanded) {
     const double az = std::atan2(p.y, p.x);
     EXPECT_NEAR(dot(s.tangent[i], {-std::sin(az), std::cos(az), 0.0}), 1.0, 2e-3);
     EXPECT_NEAR(s.bitangent[i].z, std::sqrt(p.x * p.x + p.y * p.y), 2e-3);
+  }
+}
+
+// Two unit squares side by side, the second's texture coordinates turned by 25 degrees and
+// moved by 3 in u (a seam where the texture continues), the vertices of the edge between them
+// in two copies `gap` apart: within 1e-9 of the extent the copies share dP/du and dP/dv (equal
+// frames), farther apart each keeps its own (25 degrees apart). The squares are put at random
+// places, so that some copies lie on either side of a face of the cells that group them.
+TEST(Mesh, SeamCopiesShareTheirFrameWhereTheyCoincide) {
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  const double c = std::cos(25 * kPi / 180), s = std::sin(25 * kPi / 180);
+  const double xy[8][2] = {{0, 0}, {1, 0}, {1, 1}, {0, 1}, {1, 0}, {2, 0}, {2, 1}, {1, 1}};
+  for (int trial = 0; trial < 400; ++trial) {
+    const Vec3 o{u(rng), u(rng), u(rng)}, d = normalized({u(rng), u(rng), u(rng)});
+    const double extent = std::max(
+        {std::abs(o.x), std::abs(o.x + 2), std::abs(o.y), std::abs(o.y + 1), std::abs(o.z)});
+    const bool near = trial % 4 != 0;  // one in four: copies 3 cells apart
+    const double gap = (near ? 0.9 : 3.0) * 1e-9 * extent;
+    Mesh m;
+    for (int i = 0; i < 8; ++i) {
+      const double g = i == 4 || i == 7 ? gap : 0.0, x = xy[i][0], y = xy[i][1];
+      m.position.push_back({x + o.x + g * d.x, y + o.y + g * d.y, o.z + g * d.z});
+      m.normal.push_back({0, 0, 1});
+      m.uv.push_back(i < 4 ? std::array<double, 2>{x / 2, y / 2}
+                           : std::array<double, 2>{3 + (c * x - s * y) / 2, (s * x + c * y) / 2});
+    }
+    m.triangles = {{0, 1, 2}, {0, 2, 3}, {4, 5, 6}, {4, 6, 7}};
+    compute_tangent_frames(m);
+    for (const auto& [a, b] : {std::pair{1, 4}, std::pair{2, 7}}) {
+      const Vec3 &ta = m.tangent[std::size_t(a)], &tb = m.tangent[std::size_t(b)];
+      if (near) {
+        EXPECT_TRUE(ta.x == tb.x && ta.y == tb.y && ta.z == tb.z) << "trial " << trial;
+      } else {
+        EXPECT_NEAR(dot(ta, tb), c, 1e-6) << "trial " << trial;
+      }
+    }
   }
 }
 

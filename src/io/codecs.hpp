@@ -1,4 +1,5 @@
-// The per-format codecs behind btfgmm/io/image.hpp: PNG and JPEG through stb (stb.cpp),
+// The per-format codecs behind btfgmm/io/image.hpp: PNG and JPEG through stb (stb.cpp; PNG
+// encoding through zlib, png_encode.cpp),
 // OpenEXR through OpenEXR 3 (exr.cpp). They decode from memory and encode to memory;
 // image.cpp tells the formats apart, reads and writes the files.
 #pragma once
@@ -37,7 +38,10 @@ Image stb_decode(std::span<const std::uint8_t> bytes, ImageFormat f, const std::
 // stb decodes what it can of a damaged PNG or JPEG; these check that the file is complete.
 void check_png_complete(std::span<const std::uint8_t> bytes, const std::string& name);
 void check_jpeg_complete(std::span<const std::uint8_t> bytes, const std::string& name);
-// An 8-bit RGB PNG of `rgb` (values rounded and clamped to 0..255; NaN becomes 0).
+// 8-bit levels of `rgb`: rounded (halves up) and clamped to 0..255; NaN becomes 0
+// (png_encode.cpp).
+std::vector<std::uint8_t> to_levels(std::span<const float> rgb);
+// An 8-bit RGB PNG of `rgb` (levels as to_levels'), through zlib (png_encode.cpp).
 std::vector<std::uint8_t> encode_png(int width, int height, std::span<const float> rgb,
                                      const std::string& name);
 // A baseline JPEG of `rgb` (levels as encode_png's), at quality kJpegQuality.

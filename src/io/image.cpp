@@ -262,8 +262,9 @@ void write_image(const fs::path& path, const Image& image) {
 }
 
 void write_picture(const fs::path& path, int width, int height, std::span<const float> levels) {
-  if (output_image_format(path) != ImageFormat::kExr)
-    return write_image(path, {width, height, SampleFormat::kLdr8, {levels.begin(), levels.end()}});
+  const ImageFormat f = output_image_format(path);
+  if (f == ImageFormat::kPng) return write_png(path, width, height, levels);
+  if (f == ImageFormat::kJpeg) return write_jpeg(path, width, height, levels);
   // sRGB levels to linear values (IEC 61966-2-1), levels above 255 along the same curve.
   std::vector<float> linear(levels.size());
   for (std::size_t i = 0; i < levels.size(); ++i) {

@@ -1,6 +1,6 @@
 // PNG (8/16-bit) and JPEG through stb: structural checks that stb leaves out (a complete
 // file, data enough for the size claimed, sane Huffman tables), decoding to float RGB with a
-// tile cut out, and 8-bit PNG encoding.
+// tile cut out, and JPEG encoding (PNG encoding: png_encode.cpp).
 #include <fmt/format.h>
 #include <stb/stb_image.h>
 #include <stb/stb_image_write.h>
@@ -241,16 +241,6 @@ Image stb_decode(std::span<const std::uint8_t> bytes, ImageFormat f, const std::
 
 namespace {
 
-// 8-bit levels: NaN becomes 0; everything else is rounded and clamped to 0..255.
-std::vector<std::uint8_t> to_levels(std::span<const float> rgb) {
-  std::vector<std::uint8_t> px(rgb.size());
-  for (std::size_t i = 0; i < rgb.size(); ++i) {
-    const float v = rgb[i];
-    px[i] = v >= 0.0f ? static_cast<std::uint8_t>(std::lround(std::min(v, 255.0f))) : 0;
-  }
-  return px;
-}
-
 void append_bytes(void* ctx, void* data, int size) {
   auto* v = static_cast<std::vector<std::uint8_t>*>(ctx);
   const auto* p = static_cast<const std::uint8_t*>(data);
@@ -258,15 +248,6 @@ void append_bytes(void* ctx, void* data, int size) {
 }
 
 }  // namespace
-
-std::vector<std::uint8_t> encode_png(int width, int height, std::span<const float> rgb,
-                                     const std::string& name) {
-  const std::vector<std::uint8_t> px = to_levels(rgb);
-  std::vector<std::uint8_t> out;
-  if (!stbi_write_png_to_func(append_bytes, &out, width, height, 3, px.data(), width * 3))
-    throw Error(Error::Kind::kIo, fmt::format("cannot write {}: PNG encoding failed", name));
-  return out;
-}
 
 std::vector<std::uint8_t> encode_jpeg(int width, int height, std::span<const float> rgb,
                                       const std::string& name) {

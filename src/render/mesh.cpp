@@ -8,9 +8,11 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
-#include <map>
+#include <iterator>
 #include <numbers>
 #include <tuple>
+#include <utility>
+#include <vector>
 
 #include "btfgmm/core/error.hpp"
 #include "btfgmm/core/text.hpp"
@@ -32,18 +34,20 @@ using detail::length;
 
 // A grid of (nu + 1) x (nv + 1) vertices from a parametric surface, two triangles per cell,
 // counter-clockwise seen from the side the normal points to when (u, v) is right-handed.
+// The vertices are computed in parallel, rows handed out as threads come free (`at` must be a
+// pure function: the cloth's takes a few hundred operations a vertex).
 template <class F>
 Mesh grid_mesh(int nu, int nv, F&& at) {
   Mesh m;
+  const std::size_t row = std::size_t(nu) + 1, count = row * (std::size_t(nv) + 1);
+  m.position.resize(count);
+  m.normal.resize(count);
+  m.uv.resize(count);
+#pragma omp parallel for schedule(dynamic, 8)
   for (int j = 0; j <= nv; ++j)
     for (int i = 0; i <= nu; ++i) {
-      const double s = double(i) / nu, t = double(j) / nv;
-      Vec3 p, n;
-      std::array<double, 2> uv{};
-      at(s, t, p, n, uv);
-      m.position.push_back(p);
-      m.normal.push_back(n);
-      m.uv.push_back(uv);
+      const std::size_t k = std::size_t(j) * row + std::size_t(i);
+      at(double(i) / nu, double(j) / nv, m.position[k], m.normal[k], m.uv[k]);
     }
   auto id = [&](int i, int j) { return std::uint32_t(j * (nu + 1) + i); };
   for (int j = 0; j < nv; ++j)
@@ -65,37 +69,74 @@ Vec3 direction_of(const Vec3& v) {
   return l > 0 ? v * (1.0 / l) : v;
 }
 
+// The cell of a point in a grid of cells `size` wide, and a vertex listed by its cell.
+using CellKey = std::array<long long, 3>;
+using CellEntry = std::pair<CellKey, std::uint32_t>;
+CellKey cell_of(const Vec3& p, double size) {
+  return {std::llround(std::floor(p.x / size)), std::llround(std::floor(p.y / size)),
+          std::llround(std::floor(p.z / size))};
+}
+
 // Groups of vertices at one position (within 1e-9 of the mesh's extent; the sphere's seam
-// vertices differ by rounding), each listed once, in vertex order.
+// vertices differ by rounding), each listed once, in vertex order; a group's vertices in the
+// order of their cells of that size (x, then y, then z), then of their indices.
+//
+// The candidates come from the vertices sorted by cells 64 times as large: a vertex takes
+// those of its own cell, beside it in that order, and looks a neighbouring cell up only along
+// an axis where it lies near a face (rarely), not 27 cells in a map.
 std::vector<std::vector<std::uint32_t>> coincident_vertices(const Mesh& m) {
   double extent = 0.0;
   for (const Vec3& p : m.position)
     extent = std::max({extent, std::abs(p.x), std::abs(p.y), std::abs(p.z)});
-  const double cell = std::max(extent, 1e-300) * 1e-9;
-  using Key = std::array<long long, 3>;
-  auto key = [&](const Vec3& p) {
-    return Key{std::llround(std::floor(p.x / cell)), std::llround(std::floor(p.y / cell)),
-               std::llround(std::floor(p.z / cell))};
-  };
-  std::map<Key, std::vector<std::uint32_t>> cells;
-  for (std::size_t i = 0; i < m.position.size(); ++i)
-    cells[key(m.position[i])].push_back(std::uint32_t(i));
+  const double cell = std::max(extent, 1e-300) * 1e-9, coarse = 64.0 * cell;
+  const std::size_t n = m.position.size();
+  std::vector<CellEntry> sorted(n);
+  for (std::size_t i = 0; i < n; ++i)
+    sorted[i] = {cell_of(m.position[i], coarse), std::uint32_t(i)};
+  std::sort(sorted.begin(), sorted.end());
+  std::vector<std::uint32_t> rank(n);
+  for (std::size_t r = 0; r < n; ++r) rank[sorted[r].second] = std::uint32_t(r);
   std::vector<std::vector<std::uint32_t>> groups;
-  std::vector<std::uint8_t> grouped(m.position.size(), 0);
-  for (std::size_t i = 0; i < m.position.size(); ++i) {
+  std::vector<std::uint8_t> grouped(n, 0);
+  std::vector<CellEntry> g;
+  for (std::size_t i = 0; i < n; ++i) {
     if (grouped[i]) continue;
-    std::vector<std::uint32_t> g;
-    const Key k = key(m.position[i]);
-    for (long long a = -1; a <= 1; ++a)
-      for (long long b = -1; b <= 1; ++b)
-        for (long long c = -1; c <= 1; ++c) {
-          const auto it = cells.find({k[0] + a, k[1] + b, k[2] + c});
-          if (it == cells.end()) continue;
-          for (const std::uint32_t j : it->second)
-            if (!grouped[j] && length(m.position[j] - m.position[i]) <= cell) g.push_back(j);
+    g.clear();
+    const Vec3& p = m.position[i];
+    const CellKey k = sorted[rank[i]].first, fine = cell_of(p, cell);
+    const auto take = [&](std::vector<CellEntry>::const_iterator it, const CellKey& key) {
+      for (; it != sorted.end() && it->first == key; ++it) {
+        const std::uint32_t j = it->second;
+        const CellKey fj = cell_of(m.position[j], cell);
+        const bool adjacent = std::abs(fj[0] - fine[0]) <= 1 && std::abs(fj[1] - fine[1]) <= 1 &&
+                              std::abs(fj[2] - fine[2]) <= 1;
+        if (!grouped[j] && adjacent && length(m.position[j] - p) <= cell) g.push_back({fj, j});
+      }
+    };
+    // The own cell from its first entry; a neighbour along an axis only where p lies within
+    // 0.03 of a cell of its face (a vertex within `cell` lies within 1/64, with room for
+    // rounding).
+    auto first = sorted.begin() + std::ptrdiff_t(rank[i]);
+    while (first != sorted.begin() && std::prev(first)->first == k) --first;
+    const double q[3] = {p.x / coarse, p.y / coarse, p.z / coarse};
+    std::array<std::array<long long, 2>, 3> range{};
+    for (std::size_t a = 0; a < 3; ++a) {
+      const double f = q[a] - std::floor(q[a]);
+      range[a] = {f < 0.03 ? -1 : 0, f > 0.97 ? 1 : 0};
+    }
+    for (long long a = range[0][0]; a <= range[0][1]; ++a)
+      for (long long b = range[1][0]; b <= range[1][1]; ++b)
+        for (long long c = range[2][0]; c <= range[2][1]; ++c) {
+          const CellKey nk{k[0] + a, k[1] + b, k[2] + c};
+          take(nk == k ? first : std::lower_bound(sorted.begin(), sorted.end(), CellEntry{nk, 0u}),
+               nk);
         }
-    for (const std::uint32_t j : g) grouped[j] = 1;
-    if (g.size() > 1) groups.push_back(std::move(g));
+    for (const CellEntry& e : g) grouped[e.second] = 1;
+    if (g.size() < 2) continue;
+    std::sort(g.begin(), g.end());
+    std::vector<std::uint32_t> group;
+    for (const CellEntry& e : g) group.push_back(e.second);
+    groups.push_back(std::move(group));
   }
   return groups;
 }
@@ -109,19 +150,22 @@ std::vector<std::vector<std::uint32_t>> coincident_vertices(const Mesh& m) {
 // slices). Mirrored or rotated UV islands keep their own frames.
 void share_seam_tangents(const Mesh& m, std::vector<Vec3>& tu, std::vector<Vec3>& tv) {
   for (const auto& group : coincident_vertices(m)) {
-    std::vector<Vec3> su(group.size()), sv(group.size());
-    for (std::size_t a = 0; a < group.size(); ++a) {
-      const std::uint32_t i = group[a];
-      for (const std::uint32_t j : group) {
-        const bool agree = dot(direction_of(m.normal[i]), direction_of(m.normal[j])) > 0.5 &&
-                           dot(direction_of(tu[i]), direction_of(tu[j])) > 0.5 &&
-                           dot(direction_of(tv[i]), direction_of(tv[j])) > 0.5;
-        if (i == j || agree) {
-          su[a] = su[a] + tu[j];
-          sv[a] = sv[a] + tv[j];
+    const std::size_t n = group.size();
+    std::vector<Vec3> su(n), sv(n), dn(n), du(n), dv(n);
+    for (std::size_t a = 0; a < n; ++a) {
+      dn[a] = direction_of(m.normal[group[a]]);
+      du[a] = direction_of(tu[group[a]]);
+      dv[a] = direction_of(tv[group[a]]);
+    }
+    for (std::size_t a = 0; a < n; ++a)
+      for (std::size_t b = 0; b < n; ++b) {
+        const bool agree =
+            dot(dn[a], dn[b]) > 0.5 && dot(du[a], du[b]) > 0.5 && dot(dv[a], dv[b]) > 0.5;
+        if (a == b || agree) {
+          su[a] = su[a] + tu[group[b]];
+          sv[a] = sv[a] + tv[group[b]];
         }
       }
-    }
     for (std::size_t a = 0; a < group.size(); ++a) {
       tu[group[a]] = su[a];
       tv[group[a]] = sv[a];
