@@ -17,6 +17,7 @@
 #include "core/random.hpp"
 #include "methods/lpca_fit.hpp"
 #include "methods/pca.hpp"
+#include "methods/pca_methods.hpp"
 #include "test_util.hpp"
 
 namespace btfgmm {
@@ -145,6 +146,35 @@ TEST(PcaCore, FitCoordinatesProjectOnAnOrthonormalBasis) {
       r[i * 16 + j] = s;
     }
   EXPECT_NEAR(squared_error(x, r), p.discarded_energy, 1e-5 * p.total_energy);
+}
+
+// Large enough for several blocks of rows and slabs of columns in every product: the same
+// bits with one, two and three threads (the blocks are fixed, and summed in order).
+TEST(PcaCore, SameBitsWithAnyNumberOfThreads) {
+  const std::size_t rows = 1100, cols = 2500, c = 5;
+  const auto x = structured_matrix(rows, cols, 8, 1.0, 13);
+  for (std::size_t above : {500, 2000}) {  // the randomized SVD, the Gram matrix
+    detail::PcaSettings s;
+    s.randomized_above = above;
+    auto fit = [&](int threads) {
+      const detail::ThreadScope scope(threads);
+      detail::Pca p = detail::principal_components(x, rows, cols, c, s);
+      const std::vector<float> mean(p.mean.begin(), p.mean.end()),
+          basis(p.directions.begin(), p.directions.end());
+      return std::pair{p, detail::fit_coordinates(x, rows, cols, mean, basis, c)};
+    };
+    const auto [one, w1] = fit(1);
+    EXPECT_EQ(one.randomized, above == 500);
+    for (int threads : {2, 3}) {
+      const auto [more, w] = fit(threads);
+      EXPECT_EQ(one.mean, more.mean) << threads;
+      EXPECT_EQ(one.directions, more.directions) << threads;
+      EXPECT_EQ(one.coordinates, more.coordinates) << threads;
+      EXPECT_EQ(one.singular_values, more.singular_values) << threads;
+      EXPECT_EQ(one.total_energy, more.total_energy) << threads;
+      EXPECT_EQ(w1, w) << threads;
+    }
+  }
 }
 
 // ---- the methods -------------------------------------------------------------------------

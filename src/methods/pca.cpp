@@ -6,8 +6,9 @@
 #include <cassert>
 #include <cmath>
 
-#include "core/random.hpp"
 #include "core/eigen_dense.hpp"
+#include "core/random.hpp"
+#include "methods/pca_methods.hpp"
 
 namespace btfgmm::detail {
 namespace {
@@ -81,9 +82,18 @@ class CentredData {
   Eigen::RowVectorXd mean_;
 };
 
+// a b on the calling thread alone. Eigen's own threads would block the sums by their number,
+// and the model must be the same whatever the number of threads.
+template <class A, class B>
+MatD serial_product(const A& a, const B& b) {
+  const ThreadScope one(1);
+  return a * b;
+}
+
 // Orthonormal columns spanning the leading columns of `v` in order (Householder QR: the first
 // j columns of the result span the first j of `v`).
 MatD orthonormal_columns(const MatD& v) {
+  const ThreadScope one(1);  // as serial_product
   Eigen::HouseholderQR<MatD> qr(v);
   return qr.householderQ() * MatD::Identity(v.rows(), v.cols());
 }
@@ -113,12 +123,27 @@ Eigenpairs descending_eigenpairs(const MatD& g) {
   return e;
 }
 
+// Rows of a Gram matrix in one of its slabs: fixed, as kSlabColumns below.
+constexpr Eigen::Index kGramSlab = 64;
+
+// g += aᵀ a for a block `a` of the data, the slabs of g's rows over OpenMP's threads (each sum
+// in the order of the blocks, whatever the number of threads).
+template <class Block>
+void add_gram(const Block& a, MatD& g) {
+  const std::ptrdiff_t slabs = std::ptrdiff_t((g.rows() + kGramSlab - 1) / kGramSlab);
+#pragma omp parallel for schedule(dynamic, 1)
+  for (std::ptrdiff_t k = 0; k < slabs; ++k) {
+    const Eigen::Index r0 = Eigen::Index(k) * kGramSlab, n = std::min(kGramSlab, g.rows() - r0);
+    g.middleRows(r0, n).noalias() += a.middleCols(r0, n).transpose() * a;
+  }
+}
+
 // The Gram matrix of the columns side, Xcᵀ Xc (cols x cols), and |Xc|².
 MatD column_gram(const CentredData& d, double& total) {
   MatD g = MatD::Zero(Eigen::Index(d.cols()), Eigen::Index(d.cols()));
   total = 0.0;
   d.for_row_blocks([&](const auto& b, Eigen::Index, Eigen::Index) {
-    g.noalias() += b.transpose() * b;
+    add_gram(b, g);
     total += b.squaredNorm();
   });
   return g;
@@ -129,7 +154,7 @@ MatD row_gram(const CentredData& d, double& total) {
   MatD g = MatD::Zero(Eigen::Index(d.rows()), Eigen::Index(d.rows()));
   total = 0.0;
   d.for_col_blocks([&](const auto& b, Eigen::Index, Eigen::Index) {
-    g.noalias() += b * b.transpose();
+    add_gram(b.transpose(), g);
     total += b.squaredNorm();
   });
   return g;
@@ -219,13 +244,13 @@ MatD randomized_directions(const CentredData& d, std::size_t c, const PcaSetting
   for (int i = 0; i < s.power_iterations; ++i)
     q = orthonormal_columns(times(d, orthonormal_columns(transpose_times(d, q))));
   const MatD b = transpose_times(d, q).transpose();  // l x cols
-  const Eigenpairs e = descending_eigenpairs(b * b.transpose());
+  const Eigenpairs e = descending_eigenpairs(serial_product(b, b.transpose()));
   p.singular_values.assign(e.values.begin(), e.values.end());
   p.total_energy = 0.0;
   d.for_row_blocks(
       [&](const auto& blk, Eigen::Index, Eigen::Index) { p.total_energy += blk.squaredNorm(); });
   p.randomized = true;
-  return orthonormal_columns(b.transpose() * e.vectors.leftCols(Eigen::Index(c)));
+  return orthonormal_columns(serial_product(b.transpose(), e.vectors.leftCols(Eigen::Index(c))));
 }
 
 bool use_randomized(std::size_t rows, std::size_t cols, std::size_t c, const PcaSettings& s) {
@@ -283,17 +308,26 @@ std::vector<double> fit_coordinates(std::span<const float> x, std::size_t rows, 
                       .cast<double>()
                       .transpose();  // cols x c
   // The normal equations' matrix BBᵀ, pseudo-inverted once (rank-deficient bases too).
-  const MatD solve = (bt.transpose() * bt).completeOrthogonalDecomposition().pseudoInverse();
+  const MatD solve =
+      serial_product(bt.transpose(), bt).completeOrthogonalDecomposition().pseudoInverse();
   const Eigen::RowVectorXd m =
       Eigen::Map<const Eigen::RowVectorXf>(mean.data(), Eigen::Index(cols)).cast<double>();
   const Eigen::Map<const RowMatF> xs(x.data(), Eigen::Index(rows), Eigen::Index(cols));
   std::vector<double> out(rows * c);
   Eigen::Map<RowMatD> w(out.data(), Eigen::Index(rows), Eigen::Index(c));
+  // Blocks of rows over OpenMP's threads, each writing its own rows (as `times`).
   const std::size_t step = std::max<std::size_t>(1, kBlockValues / std::max<std::size_t>(1, cols));
-  for (std::size_t r0 = 0; r0 < rows; r0 += step) {
-    const Eigen::Index n = Eigen::Index(std::min(step, rows - r0));
-    const MatD b = xs.middleRows(Eigen::Index(r0), n).cast<double>().rowwise() - m;
-    w.middleRows(Eigen::Index(r0), n).noalias() = (b * bt) * solve.transpose();
+  const std::ptrdiff_t blocks = std::ptrdiff_t((rows + step - 1) / step);
+#pragma omp parallel
+  {
+    RowMatD b(Eigen::Index(std::min(step, rows)), Eigen::Index(cols));
+#pragma omp for schedule(dynamic, 1)
+    for (std::ptrdiff_t k = 0; k < blocks; ++k) {
+      const std::size_t r0 = std::size_t(k) * step;
+      const Eigen::Index n = Eigen::Index(std::min(step, rows - r0));
+      b.topRows(n) = xs.middleRows(Eigen::Index(r0), n).cast<double>().rowwise() - m;
+      w.middleRows(Eigen::Index(r0), n).noalias() = (b.topRows(n) * bt) * solve.transpose();
+    }
   }
   return out;
 }
