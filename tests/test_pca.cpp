@@ -115,8 +115,10 @@ TEST(PcaCore, RandomizedAgreesWithTheGramMatrix) {
   EXPECT_LT(orthonormality_error(r), 1e-12);
   EXPECT_NEAR(r.discarded_energy, g.discarded_energy, 1e-8 * g.discarded_energy);
   EXPECT_NEAR(squared_error(x, detail::reconstruct(r)), r.discarded_energy, 1e-9 * r.total_energy);
+  // The range finder runs in single precision: the singular values of the projection (in
+  // double) on its basis are off by about 2e-9 of the largest here.
   for (std::size_t i = 0; i < 4; ++i)
-    EXPECT_NEAR(r.singular_values[i], g.singular_values[i], 1e-9 * g.singular_values[0]);
+    EXPECT_NEAR(r.singular_values[i], g.singular_values[i], 1e-8 * g.singular_values[0]);
 }
 
 TEST(PcaCore, MoreComponentsThanRowsCompleteTheBasis) {

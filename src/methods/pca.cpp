@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cassert>
 #include <cmath>
+#include <type_traits>
 
 #include "core/eigen_dense.hpp"
 #include "core/random.hpp"
@@ -14,18 +15,24 @@ namespace btfgmm::detail {
 namespace {
 
 using MatD = Eigen::MatrixXd;
-using RowMatF = Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
-using RowMatD = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+template <class T>
+using Mat = Eigen::Matrix<T, Eigen::Dynamic, Eigen::Dynamic>;
+template <class T>
+using RowMat = Eigen::Matrix<T, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+using RowMatF = RowMat<float>;
+using RowMatD = RowMat<double>;
 
 // About this many doubles in a block of the data converted for a product.
 constexpr std::size_t kBlockValues = std::size_t(1) << 21;
 
-// The data minus its mean, read in blocks of rows or columns converted to double.
+// The data minus its mean, read in blocks of rows or columns converted to double (or, for the
+// range finder, centred in single precision).
 class CentredData {
  public:
   CentredData(std::span<const float> x, std::size_t rows, std::size_t cols, bool centre)
       : x_(x.data(), Eigen::Index(rows), Eigen::Index(cols)),
-        mean_(Eigen::RowVectorXd::Zero(Eigen::Index(cols))) {
+        mean_(Eigen::RowVectorXd::Zero(Eigen::Index(cols))),
+        mean_f_(Eigen::RowVectorXf::Zero(Eigen::Index(cols))) {
     if (!centre || rows == 0) return;
     for (std::size_t r0 = 0; r0 < rows; r0 += row_step())
       mean_ += x_.middleRows(Eigen::Index(r0), Eigen::Index(std::min(row_step(), rows - r0)))
@@ -33,6 +40,7 @@ class CentredData {
                    .colwise()
                    .sum();
     mean_ /= double(rows);
+    mean_f_ = mean_.cast<float>();
   }
 
   std::size_t rows() const { return std::size_t(x_.rows()); }
@@ -43,12 +51,15 @@ class CentredData {
 
   // Rows [r0, r0 + n) and columns [c0, c0 + m), centred, into the top-left of `buffer`
   // (which holds at least n x m).
-  auto block(std::size_t r0, std::size_t n, std::size_t c0, std::size_t m, RowMatD& buffer) const {
+  template <class T>
+  auto block(std::size_t r0, std::size_t n, std::size_t c0, std::size_t m,
+             RowMat<T>& buffer) const {
     auto b = buffer.topLeftCorner(Eigen::Index(n), Eigen::Index(m));
-    b = x_.block(Eigen::Index(r0), Eigen::Index(c0), Eigen::Index(n), Eigen::Index(m))
-            .cast<double>()
-            .rowwise() -
-        mean_.segment(Eigen::Index(c0), Eigen::Index(m));
+    const auto x = x_.block(Eigen::Index(r0), Eigen::Index(c0), Eigen::Index(n), Eigen::Index(m));
+    if constexpr (std::is_same_v<T, float>)
+      b = x.rowwise() - mean_f_.segment(Eigen::Index(c0), Eigen::Index(m));
+    else
+      b = x.template cast<double>().rowwise() - mean_.segment(Eigen::Index(c0), Eigen::Index(m));
     return b;
   }
 
@@ -80,6 +91,7 @@ class CentredData {
  private:
   Eigen::Map<const RowMatF> x_;
   Eigen::RowVectorXd mean_;
+  Eigen::RowVectorXf mean_f_;
 };
 
 // a b on the calling thread alone. Eigen's own threads would block the sums by their number,
@@ -168,14 +180,17 @@ constexpr std::size_t kSlabColumns = 1024;
 // its own blocks; Eigen's products inside a parallel region run on the calling thread (its
 // own threads, at 26 columns and on shared cores, cost more than they gain).
 
-// Xcᵀ u (cols x u.cols()): each slab of columns summed over blocks of rows, in order.
-MatD transpose_times(const CentredData& d, const MatD& u) {
-  MatD out(Eigen::Index(d.cols()), u.cols());
+// Xcᵀ u (cols x u.cols()) in T: each slab of columns summed over blocks of rows, in order.
+// With `energy`, |Xc|² too (each slab's in order, then the slabs' in order).
+template <class T>
+Mat<T> transpose_times(const CentredData& d, const Mat<T>& u, double* energy = nullptr) {
+  Mat<T> out(Eigen::Index(d.cols()), u.cols());
   const std::ptrdiff_t slabs = std::ptrdiff_t((d.cols() + kSlabColumns - 1) / kSlabColumns);
+  std::vector<double> slab_energy(std::size_t(slabs), 0.0);
 #pragma omp parallel
   {
     const std::size_t step = std::max<std::size_t>(1, kBlockValues / kSlabColumns);
-    RowMatD buffer(Eigen::Index(std::min(step, d.rows())), Eigen::Index(kSlabColumns));
+    RowMat<T> buffer(Eigen::Index(std::min(step, d.rows())), Eigen::Index(kSlabColumns));
 #pragma omp for schedule(dynamic, 1)
     for (std::ptrdiff_t k = 0; k < slabs; ++k) {
       const std::size_t c0 = std::size_t(k) * kSlabColumns,
@@ -184,22 +199,28 @@ MatD transpose_times(const CentredData& d, const MatD& u) {
       slab.setZero();
       for (std::size_t r0 = 0; r0 < d.rows(); r0 += step) {
         const std::size_t n = std::min(step, d.rows() - r0);
-        slab.noalias() += d.block(r0, n, c0, m, buffer).transpose() *
-                          u.middleRows(Eigen::Index(r0), Eigen::Index(n));
+        const auto b = d.block(r0, n, c0, m, buffer);
+        slab.noalias() += b.transpose() * u.middleRows(Eigen::Index(r0), Eigen::Index(n));
+        if (energy) slab_energy[std::size_t(k)] += double(b.squaredNorm());
       }
     }
+  }
+  if (energy) {
+    *energy = 0.0;
+    for (double e : slab_energy) *energy += e;
   }
   return out;
 }
 
-// Xc v (rows x v.cols()), by blocks of rows, each writing its own rows.
-MatD times(const CentredData& d, const MatD& v) {
-  MatD out(Eigen::Index(d.rows()), v.cols());
+// Xc v (rows x v.cols()) in T, by blocks of rows, each writing its own rows.
+template <class T>
+Mat<T> times(const CentredData& d, const Mat<T>& v) {
+  Mat<T> out(Eigen::Index(d.rows()), v.cols());
   const std::size_t step = d.row_step();
   const std::ptrdiff_t blocks = std::ptrdiff_t((d.rows() + step - 1) / step);
 #pragma omp parallel
   {
-    RowMatD buffer(Eigen::Index(std::min(step, d.rows())), Eigen::Index(d.cols()));
+    RowMat<T> buffer(Eigen::Index(std::min(step, d.rows())), Eigen::Index(d.cols()));
 #pragma omp for schedule(dynamic, 1)
     for (std::ptrdiff_t k = 0; k < blocks; ++k) {
       const std::size_t r0 = std::size_t(k) * step, n = std::min(step, d.rows() - r0);
@@ -232,23 +253,34 @@ MatD gram_directions(const CentredData& d, std::size_t c, const PcaSettings& s, 
   p.singular_values.assign(e.values.begin(), e.values.end());
   const Eigen::Index k = std::min(Eigen::Index(c), e.values.size());
   // Xcᵀ u_i = s_i v_i: normalised (and re-orthogonalised) by the QR.
-  return complete_basis(transpose_times(d, e.vectors.leftCols(k)), c, s.seed);
+  return complete_basis(transpose_times(d, MatD(e.vectors.leftCols(k))), c, s.seed);
 }
 
-// The top c right singular vectors by a randomized SVD: an orthonormal basis Q of the range of
-// Xc Ω refined by power iterations, then the exact SVD of the small Qᵀ Xc.
+// An orthonormal basis (rows x l) of the range of Xc Ω, Ω cols x l Gaussian, refined by power
+// iterations: the randomized range finder with subspace iteration of Halko, Martinsson & Tropp
+// (2011), Algorithm 4.4, each product orthonormalised. The products are in single precision:
+// the basis need only span the dominant range (the rounding perturbs it by about 1e-7 of the
+// largest singular value; the Rayleigh-Ritz values of the projection, in double, move less);
+// the projection and the SVD after it are in double.
+MatD range_basis(const CentredData& d, Eigen::Index l, const PcaSettings& s) {
+  auto orthonormal_f = [](const Eigen::MatrixXf& v) {
+    return orthonormal_columns(v.cast<double>()).cast<float>().eval();
+  };
+  Eigen::MatrixXf q = orthonormal_f(
+      times(d, gaussian_matrix(Eigen::Index(d.cols()), l, s.seed).cast<float>().eval()));
+  for (int i = 0; i < s.power_iterations; ++i)
+    q = orthonormal_f(times(d, orthonormal_f(transpose_times(d, q))));
+  return q.cast<double>();
+}
+
+// The top c right singular vectors by a randomized SVD (Halko et al. 2011, Algorithm 5.1): the
+// exact SVD of the small B = Qᵀ Xc, Q from range_basis; |Xc|² in the same pass.
 MatD randomized_directions(const CentredData& d, std::size_t c, const PcaSettings& s, Pca& p) {
   const Eigen::Index l =
       Eigen::Index(std::min({c + std::max<std::size_t>(10, c / 2), d.rows(), d.cols()}));
-  MatD q = orthonormal_columns(times(d, gaussian_matrix(Eigen::Index(d.cols()), l, s.seed)));
-  for (int i = 0; i < s.power_iterations; ++i)
-    q = orthonormal_columns(times(d, orthonormal_columns(transpose_times(d, q))));
-  const MatD b = transpose_times(d, q).transpose();  // l x cols
-  const Eigenpairs e = descending_eigenpairs(serial_product(b, b.transpose()));
+  const MatD b = transpose_times(d, range_basis(d, l, s), &p.total_energy).transpose();
+  const Eigenpairs e = descending_eigenpairs(serial_product(b, b.transpose()));  // B Bᵀ, l x l
   p.singular_values.assign(e.values.begin(), e.values.end());
-  p.total_energy = 0.0;
-  d.for_row_blocks(
-      [&](const auto& blk, Eigen::Index, Eigen::Index) { p.total_energy += blk.squaredNorm(); });
   p.randomized = true;
   return orthonormal_columns(serial_product(b.transpose(), e.vectors.leftCols(Eigen::Index(c))));
 }
@@ -272,7 +304,7 @@ Pca principal_components(std::span<const float> x, std::size_t rows, std::size_t
                      ? randomized_directions(d, components, s, p)
                      : gram_directions(d, components, s, p);
   for (double& sv : p.singular_values) sv = std::sqrt(sv);
-  const MatD w = times(d, v);
+  const MatD w = times(d, v);  // in double
   if (p.randomized) {
     p.discarded_energy = std::max(0.0, p.total_energy - w.squaredNorm());
   } else {
