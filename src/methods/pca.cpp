@@ -34,23 +34,47 @@ class CentredData {
         mean_(Eigen::RowVectorXd::Zero(Eigen::Index(cols))),
         mean_f_(Eigen::RowVectorXf::Zero(Eigen::Index(cols))) {
     if (!centre || rows == 0) return;
-    for (std::size_t r0 = 0; r0 < rows; r0 += row_step())
-      mean_ += x_.middleRows(Eigen::Index(r0), Eigen::Index(std::min(row_step(), rows - r0)))
-                   .cast<double>()
-                   .colwise()
-                   .sum();
+    // Fixed slabs of columns over OpenMP's threads, each column summed in the rows' order.
+    constexpr std::size_t kSlab = 1024;
+    const std::ptrdiff_t slabs = std::ptrdiff_t((cols + kSlab - 1) / kSlab);
+#pragma omp parallel for schedule(dynamic, 1)
+    for (std::ptrdiff_t k = 0; k < slabs; ++k) {
+      const Eigen::Index c0 = Eigen::Index(k) * Eigen::Index(kSlab),
+                         m = std::min(Eigen::Index(kSlab), Eigen::Index(cols) - c0);
+      auto sum = mean_.segment(c0, m);
+      for (Eigen::Index r = 0; r < Eigen::Index(rows); ++r)
+        sum += x_.row(r).segment(c0, m).cast<double>();
+    }
     mean_ /= double(rows);
     mean_f_ = mean_.cast<float>();
   }
 
-  std::size_t rows() const { return std::size_t(x_.rows()); }
-  std::size_t cols() const { return std::size_t(x_.cols()); }
-  const Eigen::RowVectorXd& mean() const { return mean_; }
-  std::size_t row_step() const { return std::max<std::size_t>(1, kBlockValues / cols()); }
-  std::size_t col_step() const { return std::max<std::size_t>(1, kBlockValues / rows()); }
+  std::size_t rows() const {
+    return std::size_t(x_.rows());
+  }
+  std::size_t cols() const {
+    return std::size_t(x_.cols());
+  }
+  const Eigen::RowVectorXd& mean() const {
+    return mean_;
+  }
+  std::size_t row_step() const {
+    return std::max<std::size_t>(1, kBlockValues / cols());
+  }
+  std::size_t col_step() const {
+    return std::max<std::size_t>(1, kBlockValues / rows());
+  }
 
   // Rows [r0, r0 + n) and columns [c0, c0 + m), centred, into the top-left of `buffer`
   // (which holds at least n x m).
+  // Rows [r0, r0 + n) and columns [c0, c0 + m) as they are, not centred.
+  auto raw_block(std::size_t r0, std::size_t n, std::size_t c0, std::size_t m) const {
+    return x_.block(Eigen::Index(r0), Eigen::Index(c0), Eigen::Index(n), Eigen::Index(m));
+  }
+  const Eigen::RowVectorXf& mean_f() const {
+    return mean_f_;
+  }
+
   template <class T>
   auto block(std::size_t r0, std::size_t n, std::size_t c0, std::size_t m,
              RowMat<T>& buffer) const {
@@ -176,21 +200,27 @@ MatD row_gram(const CentredData& d, double& total) {
 // the number of threads.
 constexpr std::size_t kSlabColumns = 1024;
 
-// The products below spread fixed pieces of the work over OpenMP's threads, each converting
-// its own blocks; Eigen's products inside a parallel region run on the calling thread (its
-// own threads, at 26 columns and on shared cores, cost more than they gain).
+// The products below spread fixed pieces of the work over OpenMP's threads; Eigen's products
+// inside a parallel region run on the calling thread (its own threads, at 26 columns and on
+// shared cores, cost more than they gain). In double each thread centres its own blocks in
+// a buffer; in float the products read the data as it is and subtract the mean's share after
+// (Xc v = X v - 1 (mean v), Xcᵀ u = Xᵀ u - meanᵀ (1ᵀ u)).
 
 // Xcᵀ u (cols x u.cols()) in T: each slab of columns summed over blocks of rows, in order.
-// With `energy`, |Xc|² too (each slab's in order, then the slabs' in order).
+// With `energy` (double only), |Xc|² too (each slab's in order, then the slabs' in order).
 template <class T>
 Mat<T> transpose_times(const CentredData& d, const Mat<T>& u, double* energy = nullptr) {
+  constexpr bool kFloat = std::is_same_v<T, float>;
+  assert(!(kFloat && energy));
   Mat<T> out(Eigen::Index(d.cols()), u.cols());
   const std::ptrdiff_t slabs = std::ptrdiff_t((d.cols() + kSlabColumns - 1) / kSlabColumns);
   std::vector<double> slab_energy(std::size_t(slabs), 0.0);
+  const Eigen::Matrix<T, 1, Eigen::Dynamic> u_sums = u.colwise().sum();
 #pragma omp parallel
   {
     const std::size_t step = std::max<std::size_t>(1, kBlockValues / kSlabColumns);
-    RowMat<T> buffer(Eigen::Index(std::min(step, d.rows())), Eigen::Index(kSlabColumns));
+    RowMat<T> buffer(kFloat ? 0 : Eigen::Index(std::min(step, d.rows())),
+                     kFloat ? 0 : Eigen::Index(kSlabColumns));
 #pragma omp for schedule(dynamic, 1)
     for (std::ptrdiff_t k = 0; k < slabs; ++k) {
       const std::size_t c0 = std::size_t(k) * kSlabColumns,
@@ -199,10 +229,18 @@ Mat<T> transpose_times(const CentredData& d, const Mat<T>& u, double* energy = n
       slab.setZero();
       for (std::size_t r0 = 0; r0 < d.rows(); r0 += step) {
         const std::size_t n = std::min(step, d.rows() - r0);
-        const auto b = d.block(r0, n, c0, m, buffer);
-        slab.noalias() += b.transpose() * u.middleRows(Eigen::Index(r0), Eigen::Index(n));
-        if (energy) slab_energy[std::size_t(k)] += double(b.squaredNorm());
+        const auto un = u.middleRows(Eigen::Index(r0), Eigen::Index(n));
+        if constexpr (kFloat) {
+          slab.noalias() += d.raw_block(r0, n, c0, m).transpose() * un;
+        } else {
+          const auto b = d.block(r0, n, c0, m, buffer);
+          slab.noalias() += b.transpose() * un;
+          if (energy) slab_energy[std::size_t(k)] += b.squaredNorm();
+        }
       }
+      if constexpr (kFloat)
+        slab.noalias() -=
+            d.mean_f().segment(Eigen::Index(c0), Eigen::Index(m)).transpose() * u_sums;
     }
   }
   if (energy) {
@@ -215,17 +253,26 @@ Mat<T> transpose_times(const CentredData& d, const Mat<T>& u, double* energy = n
 // Xc v (rows x v.cols()) in T, by blocks of rows, each writing its own rows.
 template <class T>
 Mat<T> times(const CentredData& d, const Mat<T>& v) {
+  constexpr bool kFloat = std::is_same_v<T, float>;
   Mat<T> out(Eigen::Index(d.rows()), v.cols());
   const std::size_t step = d.row_step();
   const std::ptrdiff_t blocks = std::ptrdiff_t((d.rows() + step - 1) / step);
+  Eigen::Matrix<T, 1, Eigen::Dynamic> mean_v;
+  if constexpr (kFloat) mean_v = d.mean_f() * v;
 #pragma omp parallel
   {
-    RowMat<T> buffer(Eigen::Index(std::min(step, d.rows())), Eigen::Index(d.cols()));
+    RowMat<T> buffer(kFloat ? 0 : Eigen::Index(std::min(step, d.rows())),
+                     kFloat ? 0 : Eigen::Index(d.cols()));
 #pragma omp for schedule(dynamic, 1)
     for (std::ptrdiff_t k = 0; k < blocks; ++k) {
       const std::size_t r0 = std::size_t(k) * step, n = std::min(step, d.rows() - r0);
-      out.middleRows(Eigen::Index(r0), Eigen::Index(n)).noalias() =
-          d.block(r0, n, 0, d.cols(), buffer) * v;
+      auto o = out.middleRows(Eigen::Index(r0), Eigen::Index(n));
+      if constexpr (kFloat) {
+        o.noalias() = d.raw_block(r0, n, 0, d.cols()) * v;
+        o.rowwise() -= mean_v;
+      } else {
+        o.noalias() = d.block(r0, n, 0, d.cols(), buffer) * v;
+      }
     }
   }
   return out;
