@@ -25,65 +25,48 @@ using RowMatD = RowMat<double>;
 // About this many doubles in a block of the data converted for a product.
 constexpr std::size_t kBlockValues = std::size_t(1) << 21;
 
-// The data minus its mean, read in blocks of rows or columns converted to double (or, for the
-// range finder, centred in single precision).
+// The mean of the rows of x (rows x cols): fixed slabs of columns over OpenMP's threads, each
+// column summed in the rows' order.
+Eigen::RowVectorXd column_means(const Eigen::Map<const RowMatF>& x) {
+  Eigen::RowVectorXd mean = Eigen::RowVectorXd::Zero(x.cols());
+  constexpr Eigen::Index kSlab = 1024;
+  const std::ptrdiff_t slabs = std::ptrdiff_t((x.cols() + kSlab - 1) / kSlab);
+#pragma omp parallel for schedule(dynamic, 1)
+  for (std::ptrdiff_t k = 0; k < slabs; ++k) {
+    const Eigen::Index c0 = Eigen::Index(k) * kSlab, m = std::min(kSlab, x.cols() - c0);
+    auto sum = mean.segment(c0, m);
+    for (Eigen::Index r = 0; r < x.rows(); ++r) sum += x.row(r).segment(c0, m).cast<double>();
+  }
+  return mean / double(std::max<Eigen::Index>(1, x.rows()));
+}
+
+// The data minus its mean: read as it is (the single-precision products subtract the mean's
+// share after), or in blocks of rows or columns centred in double.
 class CentredData {
  public:
   CentredData(std::span<const float> x, std::size_t rows, std::size_t cols, bool centre)
       : x_(x.data(), Eigen::Index(rows), Eigen::Index(cols)),
-        mean_(Eigen::RowVectorXd::Zero(Eigen::Index(cols))),
-        mean_f_(Eigen::RowVectorXf::Zero(Eigen::Index(cols))) {
-    if (!centre || rows == 0) return;
-    // Fixed slabs of columns over OpenMP's threads, each column summed in the rows' order.
-    constexpr std::size_t kSlab = 1024;
-    const std::ptrdiff_t slabs = std::ptrdiff_t((cols + kSlab - 1) / kSlab);
-#pragma omp parallel for schedule(dynamic, 1)
-    for (std::ptrdiff_t k = 0; k < slabs; ++k) {
-      const Eigen::Index c0 = Eigen::Index(k) * Eigen::Index(kSlab),
-                         m = std::min(Eigen::Index(kSlab), Eigen::Index(cols) - c0);
-      auto sum = mean_.segment(c0, m);
-      for (Eigen::Index r = 0; r < Eigen::Index(rows); ++r)
-        sum += x_.row(r).segment(c0, m).cast<double>();
-    }
-    mean_ /= double(rows);
-    mean_f_ = mean_.cast<float>();
-  }
+        mean_(centre ? column_means(x_) : Eigen::RowVectorXd::Zero(Eigen::Index(cols))),
+        mean_f_(mean_.cast<float>()) {}
 
-  std::size_t rows() const {
-    return std::size_t(x_.rows());
-  }
-  std::size_t cols() const {
-    return std::size_t(x_.cols());
-  }
-  const Eigen::RowVectorXd& mean() const {
-    return mean_;
-  }
-  std::size_t row_step() const {
-    return std::max<std::size_t>(1, kBlockValues / cols());
-  }
-  std::size_t col_step() const {
-    return std::max<std::size_t>(1, kBlockValues / rows());
-  }
+  std::size_t rows() const { return std::size_t(x_.rows()); }
+  std::size_t cols() const { return std::size_t(x_.cols()); }
+  const Eigen::RowVectorXd& mean() const { return mean_; }
+  const Eigen::RowVectorXf& mean_f() const { return mean_f_; }
+  std::size_t row_step() const { return std::max<std::size_t>(1, kBlockValues / cols()); }
+  std::size_t col_step() const { return std::max<std::size_t>(1, kBlockValues / rows()); }
 
-  // Rows [r0, r0 + n) and columns [c0, c0 + m), centred, into the top-left of `buffer`
-  // (which holds at least n x m).
   // Rows [r0, r0 + n) and columns [c0, c0 + m) as they are, not centred.
   auto raw_block(std::size_t r0, std::size_t n, std::size_t c0, std::size_t m) const {
     return x_.block(Eigen::Index(r0), Eigen::Index(c0), Eigen::Index(n), Eigen::Index(m));
   }
-  const Eigen::RowVectorXf& mean_f() const {
-    return mean_f_;
-  }
 
-  template <class T>
-  auto block(std::size_t r0, std::size_t n, std::size_t c0, std::size_t m,
-             RowMat<T>& buffer) const {
+  // Rows [r0, r0 + n) and columns [c0, c0 + m), centred, into the top-left of `buffer`
+  // (which holds at least n x m).
+  auto block(std::size_t r0, std::size_t n, std::size_t c0, std::size_t m, RowMatD& buffer) const {
     auto b = buffer.topLeftCorner(Eigen::Index(n), Eigen::Index(m));
-    const auto x = x_.block(Eigen::Index(r0), Eigen::Index(c0), Eigen::Index(n), Eigen::Index(m));
-    if constexpr (std::is_same_v<T, float>)
-      b = x.rowwise() - mean_f_.segment(Eigen::Index(c0), Eigen::Index(m));
-    else
-      b = x.template cast<double>().rowwise() - mean_.segment(Eigen::Index(c0), Eigen::Index(m));
+    b = raw_block(r0, n, c0, m).cast<double>().rowwise() -
+        mean_.segment(Eigen::Index(c0), Eigen::Index(m));
     return b;
   }
 
