@@ -8,6 +8,9 @@
 //     optimum for c components (the singular values after the c-th). Then scikit-learn's
 //     randomized_svd of c components on the same matrix, the same algorithm as btfgmm's
 //     randomized path (10 oversamples, 4 power iterations), its time, ratio and RMSE.
+//     btfgmm's time is its whole fit (the mean image, the PCA, the weights refitted to the
+//     stored factors); its PCA alone (principal_components) is timed and printed too.
+//     --no-full-svd skips numpy's SVD (minutes; then no optimum is printed).
 //  2. Decoding every image of the tile (all ni x nv, S x S pixels each) for every method in
 //     the registry, at the middle size of its ladder: the model is fitted to the S x S tile,
 //     or to a smaller crop of it where the fit would take longer than --fit-budget seconds
@@ -15,7 +18,7 @@
 //     S x S pixels (the tile repeats), best of --runs.
 //
 //   bench_methods [--size S] [--directions SPEC] [--components C] [--dtype float64|float32]
-//                 [--no-peer] [--fit-budget SECONDS] [--runs R] [--threads N]
+//                 [--no-peer] [--no-full-svd] [--fit-budget SECONDS] [--runs R] [--threads N]
 //                 [--methods a,b,...] [--skip-pca] [--skip-decode]
 //
 // Defaults: S = 64, ubo81 directions, C = 16, float64, budget 60 s, 3 runs. A quick check:
@@ -36,6 +39,7 @@
 
 #include "bench_clock.hpp"
 #include "btfgmm/btfgmm.hpp"
+#include "methods/pca.hpp"
 
 namespace {
 
@@ -47,7 +51,7 @@ struct Options {
   std::string directions = "ubo81", dtype = "float64";
   std::size_t components = 16;
   double fit_budget = 60.0;
-  bool peer = true, pca = true, decode = true;
+  bool peer = true, full_svd = true, pca = true, decode = true;
   std::vector<std::string> methods;  // empty: all
 };
 
@@ -117,24 +121,28 @@ void write_centred_npy(const btfgmm::Btf& tile, const std::filesystem::path& pat
 
 struct NumpyResult {
   bool ok = false;
-  double seconds = 0, optimum_rmse = 0;
+  // numpy's SVD; seconds < 0 where --no-full-svd skipped it.
+  double seconds = -1, optimum_rmse = 0;
   std::string version;
   // scikit-learn's randomized_svd of c components (4 power iterations, as btfgmm's), the same
   // algorithm as btfgmm's for a tile this size; seconds < 0 where scikit-learn is missing.
   double randomized_seconds = -1, randomized_rmse = 0;
 };
 
-// numpy.linalg.svd(full_matrices=False) of the matrix in `npy`, then scikit-learn's
-// randomized_svd, each timed in Python itself.
+// numpy.linalg.svd(full_matrices=False) of the matrix in `npy` (unless --no-full-svd), then
+// scikit-learn's randomized_svd, each timed in Python itself.
 NumpyResult numpy_svd(const std::filesystem::path& npy, const Options& o) {
   const std::string script =
       "import sys, time, numpy as np\n"
       "a = np.load(sys.argv[1]).astype(sys.argv[2])\n"
-      "t = time.perf_counter()\n"
-      "u, s, vt = np.linalg.svd(a, full_matrices=False)\n"
-      "t = time.perf_counter() - t\n"
       "c = int(sys.argv[3])\n"
-      "print(t, np.sqrt(np.sum(s[c:].astype(np.float64) ** 2) / a.size), np.__version__)\n"
+      "if sys.argv[4] == '1':\n"
+      "    t = time.perf_counter()\n"
+      "    u, s, vt = np.linalg.svd(a, full_matrices=False)\n"
+      "    t = time.perf_counter() - t\n"
+      "    print(t, np.sqrt(np.sum(s[c:].astype(np.float64) ** 2) / a.size), np.__version__)\n"
+      "else:\n"
+      "    print(-1, 0, np.__version__)\n"
       "try:\n"
       "    from sklearn.utils.extmath import randomized_svd\n"
       "    t = time.perf_counter()\n"
@@ -147,7 +155,7 @@ NumpyResult numpy_svd(const std::filesystem::path& npy, const Options& o) {
   const std::filesystem::path py = npy.string() + ".py";
   std::ofstream(py) << script;
   const std::string cmd = "/usr/bin/python3 " + py.string() + " " + npy.string() + " " + o.dtype +
-                          " " + std::to_string(o.components);
+                          " " + std::to_string(o.components) + (o.full_svd ? " 1" : " 0");
   NumpyResult r;
   if (FILE* p = popen(cmd.c_str(), "r")) {
     char version[64] = {0};
@@ -161,28 +169,52 @@ NumpyResult numpy_svd(const std::filesystem::path& npy, const Options& o) {
   return r;
 }
 
-void bench_pca(const btfgmm::Btf& tile, const Options& o) {
-  const std::size_t rows = tile.image_count(), cols = tile.image_floats();
-  std::printf("## PCA BTF: %d x %d tile, %zu x %zu directions (a %zu x %zu matrix), c = %zu\n\n",
-              tile.width(), tile.height(), tile.lights().size(), tile.views().size(), rows, cols,
-              o.components);
-  double ours = 0, ours_cpu = 0, ours_rmse = 0;
+struct OurPca {
+  bool ok = false;
+  double seconds = 0, cpu = 0, rmse = 0;
+  double pca_seconds = 0, pca_cpu = 0;  // principal_components alone
+};
+
+// btfgmm's whole pca-btf fit (the mean image, the PCA, the weights refitted to the stored
+// factors) and the RMSE of its model, then the PCA alone as the fit runs it.
+OurPca fit_ours(const btfgmm::Btf& tile, const Options& o) {
+  OurPca r;
   const btfgmm::MethodInfo* pca = method_named("pca-btf");
   if (!pca) {
     std::printf("pca-btf not built\n");
-  } else {
-    btfgmm::MethodSettings s;
-    s.components = o.components;
-    s.threads = o.threads;
-    const double t0 = now(), c0 = cpu_now();
-    const auto model = pca->fit(tile, s);
-    ours = now() - t0;
-    ours_cpu = cpu_now() - c0;
-    ours_rmse = rmse(tile, model->decode(tile.lights(), tile.views(), tile.width(), tile.height(),
-                                         btfgmm::kDecodeTolerance));
-    std::printf("btfgmm pca-btf fit: %.3f s (CPU %.3f s, %d threads), %s, RMSE %.4f levels\n", ours,
-                ours_cpu, omp_get_max_threads(), model->size_text().c_str(), ours_rmse);
+    return r;
   }
+  btfgmm::MethodSettings s;
+  s.components = o.components;
+  s.threads = o.threads;
+  const double t0 = now(), c0 = cpu_now();
+  const auto model = pca->fit(tile, s);
+  r.seconds = now() - t0;
+  r.cpu = cpu_now() - c0;
+  r.rmse = rmse(tile, model->decode(tile.lights(), tile.views(), tile.width(), tile.height(),
+                                    btfgmm::kDecodeTolerance));
+  std::printf("btfgmm pca-btf fit: %.3f s (CPU %.3f s, %d threads), %s, RMSE %.4f levels\n",
+              r.seconds, r.cpu, omp_get_max_threads(), model->size_text().c_str(), r.rmse);
+  btfgmm::detail::PcaSettings ps;
+  ps.seed = s.seed;
+  const double t1 = now(), c1 = cpu_now();
+  const btfgmm::detail::Pca p = btfgmm::detail::principal_components(
+      tile.data(), tile.image_count(), tile.image_floats(), o.components, ps);
+  r.pca_seconds = now() - t1;
+  r.pca_cpu = cpu_now() - c1;
+  std::printf(
+      "btfgmm's PCA alone (principal_components: the mean image, the %s SVD, the centred "
+      "data's energy, the projections): %.3f s (CPU %.3f s)\n",
+      p.randomized ? "randomized" : "Gram", r.pca_seconds, r.pca_cpu);
+  r.ok = true;
+  return r;
+}
+
+void bench_pca(const btfgmm::Btf& tile, const Options& o) {
+  std::printf("## PCA BTF: %d x %d tile, %zu x %zu directions (a %zu x %zu matrix), c = %zu\n\n",
+              tile.width(), tile.height(), tile.lights().size(), tile.views().size(),
+              tile.image_count(), tile.image_floats(), o.components);
+  const OurPca ours = fit_ours(tile, o);
   std::fflush(stdout);
   if (!o.peer) return;
   const std::filesystem::path npy = std::filesystem::temp_directory_path() /
@@ -194,20 +226,25 @@ void bench_pca(const btfgmm::Btf& tile, const Options& o) {
     std::printf("numpy: /usr/bin/python3 with numpy did not run\n\n");
     return;
   }
-  std::printf(
-      "numpy %s linalg.svd (%s, full_matrices=False): %.3f s; the optimum RMSE of %zu "
-      "components: %.4f levels\n",
-      np.version.c_str(), o.dtype.c_str(), np.seconds, o.components, np.optimum_rmse);
-  if (pca)
-    std::printf("numpy's time / btfgmm's: %.1fx (above 1: btfgmm faster)\n", np.seconds / ours);
+  if (np.seconds >= 0) {
+    std::printf(
+        "numpy %s linalg.svd (%s, full_matrices=False): %.3f s; the optimum RMSE of %zu "
+        "components: %.4f levels\n",
+        np.version.c_str(), o.dtype.c_str(), np.seconds, o.components, np.optimum_rmse);
+    if (ours.ok)
+      std::printf("numpy's time / btfgmm's: %.1fx (above 1: btfgmm faster)\n",
+                  np.seconds / ours.seconds);
+  }
   if (np.randomized_seconds >= 0) {
     std::printf(
         "scikit-learn randomized_svd (%s, %zu components, 10 oversamples, 4 power iterations): "
         "%.3f s, RMSE %.4f levels\n",
         o.dtype.c_str(), o.components, np.randomized_seconds, np.randomized_rmse);
-    if (pca)
-      std::printf("scikit-learn's time / btfgmm's: %.1fx (above 1: btfgmm faster)\n",
-                  np.randomized_seconds / ours);
+    if (ours.ok)
+      std::printf(
+          "scikit-learn's time / btfgmm's: %.2fx the whole fit, %.2fx the PCA alone (above 1: "
+          "btfgmm faster)\n",
+          np.randomized_seconds / ours.seconds, np.randomized_seconds / ours.pca_seconds);
   }
   std::printf("\n");
 }
@@ -286,7 +323,8 @@ void bench_decode(const btfgmm::Btf& tile, const Options& o) {
 int usage() {
   std::fprintf(stderr,
                "usage: bench_methods [--size S] [--directions SPEC] [--components C] [--dtype "
-               "float64|float32] [--no-peer] [--fit-budget SECONDS] [--runs R] [--threads N] "
+               "float64|float32] [--no-peer] [--no-full-svd] [--fit-budget SECONDS] [--runs R] "
+               "[--threads N] "
                "[--methods a,b,...] [--skip-pca] [--skip-decode]\n");
   return 2;
 }
@@ -314,6 +352,8 @@ int main(int argc, char** argv) {
       o.threads = std::atoi(argv[++i]);
     else if (a == "--no-peer")
       o.peer = false;
+    else if (a == "--no-full-svd")
+      o.full_svd = false;
     else if (a == "--skip-pca")
       o.pca = false;
     else if (a == "--skip-decode")

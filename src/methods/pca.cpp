@@ -5,48 +5,67 @@
 #include <algorithm>
 #include <cassert>
 #include <cmath>
+#include <type_traits>
 
-#include "core/random.hpp"
 #include "core/eigen_dense.hpp"
+#include "core/random.hpp"
+#include "methods/pca_methods.hpp"
 
 namespace btfgmm::detail {
 namespace {
 
 using MatD = Eigen::MatrixXd;
-using RowMatF = Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
-using RowMatD = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+template <class T>
+using Mat = Eigen::Matrix<T, Eigen::Dynamic, Eigen::Dynamic>;
+template <class T>
+using RowMat = Eigen::Matrix<T, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+using RowMatF = RowMat<float>;
+using RowMatD = RowMat<double>;
 
 // About this many doubles in a block of the data converted for a product.
 constexpr std::size_t kBlockValues = std::size_t(1) << 21;
 
-// The data minus its mean, read in blocks of rows or columns converted to double.
+// The mean of the rows of x (rows x cols): fixed slabs of columns over OpenMP's threads, each
+// column summed in the rows' order.
+Eigen::RowVectorXd column_means(const Eigen::Map<const RowMatF>& x) {
+  Eigen::RowVectorXd mean = Eigen::RowVectorXd::Zero(x.cols());
+  constexpr Eigen::Index kSlab = 1024;
+  const std::ptrdiff_t slabs = std::ptrdiff_t((x.cols() + kSlab - 1) / kSlab);
+#pragma omp parallel for schedule(dynamic, 1)
+  for (std::ptrdiff_t k = 0; k < slabs; ++k) {
+    const Eigen::Index c0 = Eigen::Index(k) * kSlab, m = std::min(kSlab, x.cols() - c0);
+    auto sum = mean.segment(c0, m);
+    for (Eigen::Index r = 0; r < x.rows(); ++r) sum += x.row(r).segment(c0, m).cast<double>();
+  }
+  return mean / double(std::max<Eigen::Index>(1, x.rows()));
+}
+
+// The data minus its mean: read as it is (the single-precision products subtract the mean's
+// share after), or in blocks of rows or columns centred in double.
 class CentredData {
  public:
   CentredData(std::span<const float> x, std::size_t rows, std::size_t cols, bool centre)
       : x_(x.data(), Eigen::Index(rows), Eigen::Index(cols)),
-        mean_(Eigen::RowVectorXd::Zero(Eigen::Index(cols))) {
-    if (!centre || rows == 0) return;
-    for (std::size_t r0 = 0; r0 < rows; r0 += row_step())
-      mean_ += x_.middleRows(Eigen::Index(r0), Eigen::Index(std::min(row_step(), rows - r0)))
-                   .cast<double>()
-                   .colwise()
-                   .sum();
-    mean_ /= double(rows);
-  }
+        mean_(centre ? column_means(x_) : Eigen::RowVectorXd::Zero(Eigen::Index(cols))),
+        mean_f_(mean_.cast<float>()) {}
 
   std::size_t rows() const { return std::size_t(x_.rows()); }
   std::size_t cols() const { return std::size_t(x_.cols()); }
   const Eigen::RowVectorXd& mean() const { return mean_; }
+  const Eigen::RowVectorXf& mean_f() const { return mean_f_; }
   std::size_t row_step() const { return std::max<std::size_t>(1, kBlockValues / cols()); }
   std::size_t col_step() const { return std::max<std::size_t>(1, kBlockValues / rows()); }
+
+  // Rows [r0, r0 + n) and columns [c0, c0 + m) as they are, not centred.
+  auto raw_block(std::size_t r0, std::size_t n, std::size_t c0, std::size_t m) const {
+    return x_.block(Eigen::Index(r0), Eigen::Index(c0), Eigen::Index(n), Eigen::Index(m));
+  }
 
   // Rows [r0, r0 + n) and columns [c0, c0 + m), centred, into the top-left of `buffer`
   // (which holds at least n x m).
   auto block(std::size_t r0, std::size_t n, std::size_t c0, std::size_t m, RowMatD& buffer) const {
     auto b = buffer.topLeftCorner(Eigen::Index(n), Eigen::Index(m));
-    b = x_.block(Eigen::Index(r0), Eigen::Index(c0), Eigen::Index(n), Eigen::Index(m))
-            .cast<double>()
-            .rowwise() -
+    b = raw_block(r0, n, c0, m).cast<double>().rowwise() -
         mean_.segment(Eigen::Index(c0), Eigen::Index(m));
     return b;
   }
@@ -79,11 +98,21 @@ class CentredData {
  private:
   Eigen::Map<const RowMatF> x_;
   Eigen::RowVectorXd mean_;
+  Eigen::RowVectorXf mean_f_;
 };
+
+// a b on the calling thread alone. Eigen's own threads would block the sums by their number,
+// and the model must be the same whatever the number of threads.
+template <class A, class B>
+MatD serial_product(const A& a, const B& b) {
+  const ThreadScope one(1);
+  return a * b;
+}
 
 // Orthonormal columns spanning the leading columns of `v` in order (Householder QR: the first
 // j columns of the result span the first j of `v`).
 MatD orthonormal_columns(const MatD& v) {
+  const ThreadScope one(1);  // as serial_product
   Eigen::HouseholderQR<MatD> qr(v);
   return qr.householderQ() * MatD::Identity(v.rows(), v.cols());
 }
@@ -113,12 +142,27 @@ Eigenpairs descending_eigenpairs(const MatD& g) {
   return e;
 }
 
+// Rows of a Gram matrix in one of its slabs: fixed, as kSlabColumns below.
+constexpr Eigen::Index kGramSlab = 64;
+
+// g += aᵀ a for a block `a` of the data, the slabs of g's rows over OpenMP's threads (each sum
+// in the order of the blocks, whatever the number of threads).
+template <class Block>
+void add_gram(const Block& a, MatD& g) {
+  const std::ptrdiff_t slabs = std::ptrdiff_t((g.rows() + kGramSlab - 1) / kGramSlab);
+#pragma omp parallel for schedule(dynamic, 1)
+  for (std::ptrdiff_t k = 0; k < slabs; ++k) {
+    const Eigen::Index r0 = Eigen::Index(k) * kGramSlab, n = std::min(kGramSlab, g.rows() - r0);
+    g.middleRows(r0, n).noalias() += a.middleCols(r0, n).transpose() * a;
+  }
+}
+
 // The Gram matrix of the columns side, Xcᵀ Xc (cols x cols), and |Xc|².
 MatD column_gram(const CentredData& d, double& total) {
   MatD g = MatD::Zero(Eigen::Index(d.cols()), Eigen::Index(d.cols()));
   total = 0.0;
   d.for_row_blocks([&](const auto& b, Eigen::Index, Eigen::Index) {
-    g.noalias() += b.transpose() * b;
+    add_gram(b, g);
     total += b.squaredNorm();
   });
   return g;
@@ -129,7 +173,7 @@ MatD row_gram(const CentredData& d, double& total) {
   MatD g = MatD::Zero(Eigen::Index(d.rows()), Eigen::Index(d.rows()));
   total = 0.0;
   d.for_col_blocks([&](const auto& b, Eigen::Index, Eigen::Index) {
-    g.noalias() += b * b.transpose();
+    add_gram(b.transpose(), g);
     total += b.squaredNorm();
   });
   return g;
@@ -139,18 +183,27 @@ MatD row_gram(const CentredData& d, double& total) {
 // the number of threads.
 constexpr std::size_t kSlabColumns = 1024;
 
-// The products below spread fixed pieces of the work over OpenMP's threads, each converting
-// its own blocks; Eigen's products inside a parallel region run on the calling thread (its
-// own threads, at 26 columns and on shared cores, cost more than they gain).
+// The products below spread fixed pieces of the work over OpenMP's threads; Eigen's products
+// inside a parallel region run on the calling thread (its own threads, at 26 columns and on
+// shared cores, cost more than they gain). In double each thread centres its own blocks in
+// a buffer; in float the products read the data as it is and subtract the mean's share after
+// (Xc v = X v - 1 (mean v), Xcᵀ u = Xᵀ u - meanᵀ (1ᵀ u)).
 
-// Xcᵀ u (cols x u.cols()): each slab of columns summed over blocks of rows, in order.
-MatD transpose_times(const CentredData& d, const MatD& u) {
-  MatD out(Eigen::Index(d.cols()), u.cols());
+// Xcᵀ u (cols x u.cols()) in T: each slab of columns summed over blocks of rows, in order.
+// With `energy` (double only), |Xc|² too (each slab's in order, then the slabs' in order).
+template <class T>
+Mat<T> transpose_times(const CentredData& d, const Mat<T>& u, double* energy = nullptr) {
+  constexpr bool kFloat = std::is_same_v<T, float>;
+  assert(!(kFloat && energy));
+  Mat<T> out(Eigen::Index(d.cols()), u.cols());
   const std::ptrdiff_t slabs = std::ptrdiff_t((d.cols() + kSlabColumns - 1) / kSlabColumns);
+  std::vector<double> slab_energy(std::size_t(slabs), 0.0);
+  const Eigen::Matrix<T, 1, Eigen::Dynamic> u_sums = u.colwise().sum();
 #pragma omp parallel
   {
     const std::size_t step = std::max<std::size_t>(1, kBlockValues / kSlabColumns);
-    RowMatD buffer(Eigen::Index(std::min(step, d.rows())), Eigen::Index(kSlabColumns));
+    RowMat<T> buffer(kFloat ? 0 : Eigen::Index(std::min(step, d.rows())),
+                     kFloat ? 0 : Eigen::Index(kSlabColumns));
 #pragma omp for schedule(dynamic, 1)
     for (std::ptrdiff_t k = 0; k < slabs; ++k) {
       const std::size_t c0 = std::size_t(k) * kSlabColumns,
@@ -159,27 +212,50 @@ MatD transpose_times(const CentredData& d, const MatD& u) {
       slab.setZero();
       for (std::size_t r0 = 0; r0 < d.rows(); r0 += step) {
         const std::size_t n = std::min(step, d.rows() - r0);
-        slab.noalias() += d.block(r0, n, c0, m, buffer).transpose() *
-                          u.middleRows(Eigen::Index(r0), Eigen::Index(n));
+        const auto un = u.middleRows(Eigen::Index(r0), Eigen::Index(n));
+        if constexpr (kFloat) {
+          slab.noalias() += d.raw_block(r0, n, c0, m).transpose() * un;
+        } else {
+          const auto b = d.block(r0, n, c0, m, buffer);
+          slab.noalias() += b.transpose() * un;
+          if (energy) slab_energy[std::size_t(k)] += b.squaredNorm();
+        }
       }
+      if constexpr (kFloat)
+        slab.noalias() -=
+            d.mean_f().segment(Eigen::Index(c0), Eigen::Index(m)).transpose() * u_sums;
     }
+  }
+  if (energy) {
+    *energy = 0.0;
+    for (double e : slab_energy) *energy += e;
   }
   return out;
 }
 
-// Xc v (rows x v.cols()), by blocks of rows, each writing its own rows.
-MatD times(const CentredData& d, const MatD& v) {
-  MatD out(Eigen::Index(d.rows()), v.cols());
+// Xc v (rows x v.cols()) in T, by blocks of rows, each writing its own rows.
+template <class T>
+Mat<T> times(const CentredData& d, const Mat<T>& v) {
+  constexpr bool kFloat = std::is_same_v<T, float>;
+  Mat<T> out(Eigen::Index(d.rows()), v.cols());
   const std::size_t step = d.row_step();
   const std::ptrdiff_t blocks = std::ptrdiff_t((d.rows() + step - 1) / step);
+  Eigen::Matrix<T, 1, Eigen::Dynamic> mean_v;
+  if constexpr (kFloat) mean_v = d.mean_f() * v;
 #pragma omp parallel
   {
-    RowMatD buffer(Eigen::Index(std::min(step, d.rows())), Eigen::Index(d.cols()));
+    RowMat<T> buffer(kFloat ? 0 : Eigen::Index(std::min(step, d.rows())),
+                     kFloat ? 0 : Eigen::Index(d.cols()));
 #pragma omp for schedule(dynamic, 1)
     for (std::ptrdiff_t k = 0; k < blocks; ++k) {
       const std::size_t r0 = std::size_t(k) * step, n = std::min(step, d.rows() - r0);
-      out.middleRows(Eigen::Index(r0), Eigen::Index(n)).noalias() =
-          d.block(r0, n, 0, d.cols(), buffer) * v;
+      auto o = out.middleRows(Eigen::Index(r0), Eigen::Index(n));
+      if constexpr (kFloat) {
+        o.noalias() = d.raw_block(r0, n, 0, d.cols()) * v;
+        o.rowwise() -= mean_v;
+      } else {
+        o.noalias() = d.block(r0, n, 0, d.cols(), buffer) * v;
+      }
     }
   }
   return out;
@@ -207,25 +283,36 @@ MatD gram_directions(const CentredData& d, std::size_t c, const PcaSettings& s, 
   p.singular_values.assign(e.values.begin(), e.values.end());
   const Eigen::Index k = std::min(Eigen::Index(c), e.values.size());
   // Xcᵀ u_i = s_i v_i: normalised (and re-orthogonalised) by the QR.
-  return complete_basis(transpose_times(d, e.vectors.leftCols(k)), c, s.seed);
+  return complete_basis(transpose_times(d, MatD(e.vectors.leftCols(k))), c, s.seed);
 }
 
-// The top c right singular vectors by a randomized SVD: an orthonormal basis Q of the range of
-// Xc Ω refined by power iterations, then the exact SVD of the small Qᵀ Xc.
+// An orthonormal basis (rows x l) of the range of Xc Ω, Ω cols x l Gaussian, refined by power
+// iterations: the randomized range finder with subspace iteration of Halko, Martinsson & Tropp
+// (2011), Algorithm 4.4, each product orthonormalised. The products are in single precision:
+// the basis need only span the dominant range (the rounding perturbs it by about 1e-7 of the
+// largest singular value; the Rayleigh-Ritz values of the projection, in double, move less);
+// the projection and the SVD after it are in double.
+MatD range_basis(const CentredData& d, Eigen::Index l, const PcaSettings& s) {
+  auto orthonormal_f = [](const Eigen::MatrixXf& v) {
+    return orthonormal_columns(v.cast<double>()).cast<float>().eval();
+  };
+  Eigen::MatrixXf q = orthonormal_f(
+      times(d, gaussian_matrix(Eigen::Index(d.cols()), l, s.seed).cast<float>().eval()));
+  for (int i = 0; i < s.power_iterations; ++i)
+    q = orthonormal_f(times(d, orthonormal_f(transpose_times(d, q))));
+  return q.cast<double>();
+}
+
+// The top c right singular vectors by a randomized SVD (Halko et al. 2011, Algorithm 5.1): the
+// exact SVD of the small B = Qᵀ Xc, Q from range_basis; |Xc|² in the same pass.
 MatD randomized_directions(const CentredData& d, std::size_t c, const PcaSettings& s, Pca& p) {
   const Eigen::Index l =
       Eigen::Index(std::min({c + std::max<std::size_t>(10, c / 2), d.rows(), d.cols()}));
-  MatD q = orthonormal_columns(times(d, gaussian_matrix(Eigen::Index(d.cols()), l, s.seed)));
-  for (int i = 0; i < s.power_iterations; ++i)
-    q = orthonormal_columns(times(d, orthonormal_columns(transpose_times(d, q))));
-  const MatD b = transpose_times(d, q).transpose();  // l x cols
-  const Eigenpairs e = descending_eigenpairs(b * b.transpose());
+  const MatD b = transpose_times(d, range_basis(d, l, s), &p.total_energy).transpose();
+  const Eigenpairs e = descending_eigenpairs(serial_product(b, b.transpose()));  // B Bᵀ, l x l
   p.singular_values.assign(e.values.begin(), e.values.end());
-  p.total_energy = 0.0;
-  d.for_row_blocks(
-      [&](const auto& blk, Eigen::Index, Eigen::Index) { p.total_energy += blk.squaredNorm(); });
   p.randomized = true;
-  return orthonormal_columns(b.transpose() * e.vectors.leftCols(Eigen::Index(c)));
+  return orthonormal_columns(serial_product(b.transpose(), e.vectors.leftCols(Eigen::Index(c))));
 }
 
 bool use_randomized(std::size_t rows, std::size_t cols, std::size_t c, const PcaSettings& s) {
@@ -247,7 +334,7 @@ Pca principal_components(std::span<const float> x, std::size_t rows, std::size_t
                      ? randomized_directions(d, components, s, p)
                      : gram_directions(d, components, s, p);
   for (double& sv : p.singular_values) sv = std::sqrt(sv);
-  const MatD w = times(d, v);
+  const MatD w = times(d, v);  // in double
   if (p.randomized) {
     p.discarded_energy = std::max(0.0, p.total_energy - w.squaredNorm());
   } else {
@@ -283,17 +370,26 @@ std::vector<double> fit_coordinates(std::span<const float> x, std::size_t rows, 
                       .cast<double>()
                       .transpose();  // cols x c
   // The normal equations' matrix BBᵀ, pseudo-inverted once (rank-deficient bases too).
-  const MatD solve = (bt.transpose() * bt).completeOrthogonalDecomposition().pseudoInverse();
+  const MatD solve =
+      serial_product(bt.transpose(), bt).completeOrthogonalDecomposition().pseudoInverse();
   const Eigen::RowVectorXd m =
       Eigen::Map<const Eigen::RowVectorXf>(mean.data(), Eigen::Index(cols)).cast<double>();
   const Eigen::Map<const RowMatF> xs(x.data(), Eigen::Index(rows), Eigen::Index(cols));
   std::vector<double> out(rows * c);
   Eigen::Map<RowMatD> w(out.data(), Eigen::Index(rows), Eigen::Index(c));
+  // Blocks of rows over OpenMP's threads, each writing its own rows (as `times`).
   const std::size_t step = std::max<std::size_t>(1, kBlockValues / std::max<std::size_t>(1, cols));
-  for (std::size_t r0 = 0; r0 < rows; r0 += step) {
-    const Eigen::Index n = Eigen::Index(std::min(step, rows - r0));
-    const MatD b = xs.middleRows(Eigen::Index(r0), n).cast<double>().rowwise() - m;
-    w.middleRows(Eigen::Index(r0), n).noalias() = (b * bt) * solve.transpose();
+  const std::ptrdiff_t blocks = std::ptrdiff_t((rows + step - 1) / step);
+#pragma omp parallel
+  {
+    RowMatD b(Eigen::Index(std::min(step, rows)), Eigen::Index(cols));
+#pragma omp for schedule(dynamic, 1)
+    for (std::ptrdiff_t k = 0; k < blocks; ++k) {
+      const std::size_t r0 = std::size_t(k) * step;
+      const Eigen::Index n = Eigen::Index(std::min(step, rows - r0));
+      b.topRows(n) = xs.middleRows(Eigen::Index(r0), n).cast<double>().rowwise() - m;
+      w.middleRows(Eigen::Index(r0), n).noalias() = (b.topRows(n) * bt) * solve.transpose();
+    }
   }
   return out;
 }

@@ -6,7 +6,10 @@
 // The decomposition is an eigen-decomposition, in double, of the Gram matrix of the smaller
 // side (X Xᵀ, n x n, when n <= d; Xᵀ X, d x d, otherwise); when both sides are large it is a
 // randomized SVD (Halko, Martinsson & Tropp 2011: a Gaussian range finder with power
-// iterations, seeded). The data is read in blocks converted to double, never copied whole.
+// iterations, seeded; the range finder's products in single precision, the projection and its
+// SVD in double). The data is never copied whole: the single-precision products read it as
+// it is, the others in blocks centred in double; the result is the same whatever the number
+// of threads.
 #pragma once
 
 #include <cstddef>
