@@ -46,7 +46,7 @@ PROGRAMS = {
     "apt-get": "apt",
     "awk": "mawk",
     "basename": "coreutils", "cat": "coreutils", "cp": "coreutils", "cut": "coreutils",
-    "date": "coreutils", "dirname": "coreutils", "env": "coreutils", "head": "coreutils",
+    "date": "coreutils", "dirname": "coreutils", "du": "coreutils", "env": "coreutils", "head": "coreutils",
     "id": "coreutils", "ln": "coreutils", "ls": "coreutils", "mkdir": "coreutils",
     "mktemp": "coreutils", "mv": "coreutils", "nice": "coreutils", "nproc": "coreutils",
     "realpath": "coreutils", "rm": "coreutils", "sh": "dash", "sleep": "coreutils",
@@ -198,6 +198,7 @@ def command_words(script):
 def commands_of(text):
     """(0, program) for each simple command of one logical line (0: the line's offset)."""
     bodies, rest = substitutions(text)
+    rest = re.sub(r"\(\((.*?)\)\)", " 0 ", rest)  # arithmetic: (( i++ )), for ((i = 0; ...))
     found = []
     for b in bodies:
         found += commands_of(b)
