@@ -100,6 +100,21 @@ TEST(Regress, ExrChunkOffsetPastTheEndOrNearTwoToThe64) {
       << msg;
 }
 
+// A Bonn zip of 460 bytes whose second entry claims 1,751,318,601 stored bytes and
+// 1,953,720,684 inflated (within deflate's ratio of 1032): the reader allocated the 1.95 GB
+// before libzip found the bytes missing. Found by fuzz_image_set (out of memory) in a 5-minute
+// run. Refused now before anything is allocated, naming the entry and the archive's size.
+TEST(Regress, ZipEntryClaimingMoreStoredBytesThanTheArchive) {
+  const fs::path file = kRegress / "zip_entry_claims_1751318601_stored_bytes.zip";
+  ASSERT_EQ(fs::file_size(file), 460u);
+  const std::string msg = error_of([&] { (void)btfgmm::BtfSource::open(file).load(); });
+  EXPECT_NE(msg.find("zip_entry_claims_1751318601_stored_bytes.zip:m/00001 tl000 pl000 tv015 "
+                     "pv000.png claims 1751318601 stored bytes, more than the archive's 460 "
+                     "bytes; the archive is corrupt, download it again"),
+            std::string::npos)
+      << msg;
+}
+
 // Every regression input through every reader, as the fuzz targets drive them: read, or
 // refused with a btfgmm::Error; never another exception (nor a sanitizer report).
 TEST(Regress, EveryInputIsReadOrRefusedCleanly) {
