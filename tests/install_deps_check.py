@@ -72,7 +72,8 @@ PROGRAMS = {
     "python3": "python3",  # tests/*.py, bench/*.sh, the README's Python
     "/usr/bin/python3": "python3",
     "/usr/bin/time": "time",  # bench/bench-scale.sh: each run's peak memory (time -v)
-    "hyperfine": "hyperfine",  # bench/bench-em-history.sh
+    "hyperfine": "hyperfine",  # bench/bench-em-history.sh, bench/bench-render-process.sh
+    "uptime": "procps",  # bench/bench-render-process.sh: the load beside each round's times
     "mpirun": "openmpi-bin",  # bench/bench-scale.sh; tests/test_scale.cpp (CMake's MPIEXEC)
     "mpiexec": "openmpi-bin",
     "chromium": "chromium",  # scripts/report-screenshot ("$browser"), tests/test_view.cpp
