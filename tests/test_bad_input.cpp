@@ -6,6 +6,7 @@
 // The tests run as root in CI, where chmod cannot make a folder read-only; a read-only folder
 // is /proc (no file can be created there) and, where mounting is permitted, a read-only tmpfs.
 // A full disk is a 64 KiB tmpfs filled up; those tests skip when mount(2) is refused.
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 #include <stb/stb_image_write.h>
 #include <sys/mount.h>
@@ -693,6 +694,47 @@ TEST(Limits, ModelTileAndOriginOutOfRange) {
   const std::int32_t negative[2] = {0, -1};
   msg = error_of([&] { btfgmm::deserialize_model(patched_model(42, negative, 8), "n.btfgmm"); });
   EXPECT_NE(msg.find("origin (0, -1)"), std::string::npos) << msg;
+}
+
+// A payload size near the top of the 64-bit range: refused, and the message gives both sizes
+// as they are (a sum of the header's size and the claimed payload wrapped around).
+TEST(Limits, ModelPayloadSizeNearTwoToThe64) {
+  const std::uint64_t huge = ~std::uint64_t(0);
+  const auto bytes = patched_model(16, &huge, 8);  // the header's payload size, after version
+  const std::string msg = error_of([&] { btfgmm::deserialize_model(bytes, "p.btfgmm"); });
+  EXPECT_NE(msg.find(fmt::format("model file 'p.btfgmm' is {} bytes, a payload of {}, but its "
+                                 "header says a payload of 18446744073709551615 bytes",
+                                 bytes.size(), bytes.size() - 28)),
+            std::string::npos)
+      << msg;
+}
+
+// The compact encoding's codes (a zstd frame) claiming 5 * 10^11 bytes from 17: refused
+// before anything is allocated for them. The golden version-5 file ends its payload with the
+// component count (u32), five quantisation steps (f64), the coded size (u64) and the frame.
+TEST(Limits, CompactCodesClaimingMoreThanTheyHold) {
+  std::string b = read_bytes(fs::path(BTFGMM_TEST_DATA) / "golden_v5_gm.btfgmm");
+  const std::size_t frame = b.rfind("\x28\xb5\x2f\xfd");
+  ASSERT_NE(frame, std::string::npos);
+  const std::uint32_t count = ~std::uint32_t(0);
+  const std::uint64_t claimed = 500000000000;
+  b.replace(frame - 52, 4, reinterpret_cast<const char*>(&count), 4);
+  b.replace(frame - 8, 8, reinterpret_cast<const char*>(&claimed), 8);
+  // The frame: magic, a single segment with an 8-byte content size, one last RLE block.
+  b.resize(frame);
+  b += std::string("\x28\xb5\x2f\xfd\xe0", 5) +
+       std::string(reinterpret_cast<const char*>(&claimed), 8) + std::string("\x03\x00\x10\x07", 4);
+  b += std::string(4, '\0');  // the CRC-32, below
+  const std::uint64_t payload = b.size() - 28;
+  b.replace(16, 8, reinterpret_cast<const char*>(&payload), 8);
+  std::vector<std::uint8_t> bytes(b.begin(), b.end());
+  const auto crc = std::uint32_t(crc32(0, bytes.data(), uInt(bytes.size() - 4)));
+  std::memcpy(bytes.data() + bytes.size() - 4, &crc, 4);
+  const std::string msg = error_of([&] { btfgmm::deserialize_model(bytes, "z.btfgmm"); });
+  EXPECT_NE(msg.find("'z.btfgmm' is invalid: the compressed codes claim 500000000000 bytes, "
+                     "more than their 17 bytes can hold"),
+            std::string::npos)
+      << msg;
 }
 
 }  // namespace

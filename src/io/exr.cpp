@@ -30,25 +30,35 @@ constexpr int kExrBand = 64;
 
 // ---- OpenEXR ---------------------------------------------------------------------------
 
+// The file's bytes as OpenEXR's input stream. Positions come from the file (its offset
+// tables), so any may be past the end or near 2^64: every check is written so that it cannot
+// wrap around (n > size - pos, never pos + n > size).
 class MemoryIStream final : public Imf::IStream {
  public:
   MemoryIStream(std::span<const std::uint8_t> bytes, const std::string& name)
       : Imf::IStream(name.c_str()), bytes_(bytes) {}
 
   bool read(char c[], int n) override {
-    if (n < 0 || pos_ + std::uint64_t(n) > bytes_.size())
-      throw Iex::InputExc("unexpected end of file");
+    if (n < 0 || std::uint64_t(n) > bytes_.size() - pos_)
+      throw Iex::InputExc(fmt::format("the file ends at byte {}, inside {} bytes from byte {}",
+                                      bytes_.size(), n, pos_));
     std::memcpy(c, bytes_.data() + pos_, std::size_t(n));
     pos_ += std::uint64_t(n);
     return pos_ < bytes_.size();
   }
   std::uint64_t tellg() override { return pos_; }
-  void seekg(std::uint64_t pos) override { pos_ = pos; }
+  // pos_ stays within the file: an offset past its end is refused where it is followed.
+  void seekg(std::uint64_t pos) override {
+    if (pos > bytes_.size())
+      throw Iex::InputExc(fmt::format("an offset in the file ({}) points past its end ({} bytes)",
+                                      pos, bytes_.size()));
+    pos_ = pos;
+  }
   void clear() override {}
 
  private:
   std::span<const std::uint8_t> bytes_;
-  std::uint64_t pos_ = 0;
+  std::uint64_t pos_ = 0;  // <= bytes_.size()
 };
 
 class MemoryOStream final : public Imf::OStream {

@@ -27,11 +27,12 @@ std::uint32_t be32(const std::uint8_t* p) {
 // stb decodes what it can of a damaged PNG or JPEG and may return garbage for the rest; check
 // structurally that the file is complete.
 void check_png_complete(std::span<const std::uint8_t> bytes, const std::string& name) {
+  // pos <= bytes.size() throughout: each length is compared with what is left after pos.
   std::size_t pos = kPngMagic.size();
-  while (pos + 12 <= bytes.size()) {
+  while (pos <= bytes.size() && bytes.size() - pos >= 12) {
     const std::uint64_t len = be32(&bytes[pos]);
     const bool iend = std::memcmp(&bytes[pos + 4], "IEND", 4) == 0;
-    if (pos + 12 + len > bytes.size()) break;
+    if (len > bytes.size() - pos - 12) break;
     if (iend) return;
     pos += 12 + std::size_t(len);
   }
@@ -72,9 +73,9 @@ void check_data_holds(std::span<const std::uint8_t> bytes, ImageFormat f, int w,
     // The first IHDR (stb refuses a file without one) and the IDAT bytes, chunk by chunk.
     double bits_per_pixel = 0.0, idat = 0.0;
     bool ihdr = false;
-    for (std::size_t pos = kPngMagic.size(); pos + 12 <= bytes.size();) {
+    for (std::size_t pos = kPngMagic.size(); pos <= bytes.size() && bytes.size() - pos >= 12;) {
       const std::uint64_t len = be32(&bytes[pos]);
-      if (pos + 12 + len > bytes.size()) break;
+      if (len > bytes.size() - pos - 12) break;
       const std::uint8_t* type = &bytes[pos + 4];
       if (!ihdr && std::memcmp(type, "IHDR", 4) == 0 && len >= 13) {
         ihdr = true;
@@ -109,6 +110,8 @@ void check_data_holds(std::span<const std::uint8_t> bytes, ImageFormat f, int w,
 void check_jpeg_huffman_tables(std::span<const std::uint8_t> bytes, const std::string& name) {
   const auto at = [&](std::size_t i) -> unsigned { return i < bytes.size() ? bytes[i] : 0u; };
   const auto be16 = [&](std::size_t i) { return at(i) << 8 | at(i + 1); };
+  // pos < bytes.size() at each marker; a segment's length is at most 65535 and a table's
+  // codes at most 256 (checked), so no sum below comes near the top of std::size_t.
   std::size_t pos = 2;  // after SOI
   while (pos < bytes.size()) {
     if (bytes[pos] != 0xff) {  // stb skips bytes until a marker

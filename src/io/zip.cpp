@@ -70,6 +70,14 @@ std::vector<std::uint8_t> read_zip_entry(zip_t* z, const fs::path& zip, const st
     throw Error(Error::Kind::kFormat,
                 fmt::format("{} is {} bytes uncompressed, too large for a BTF image",
                             entry_display(zip, entry), st.size));
+  // The entry's stored bytes must lie in the archive: its directory may claim any size.
+  std::error_code size_ec;
+  const std::uintmax_t zip_bytes = fs::file_size(zip, size_ec);
+  if ((st.valid & ZIP_STAT_COMP_SIZE) && !size_ec && st.comp_size > zip_bytes)
+    throw Error(Error::Kind::kFormat,
+                fmt::format("{} claims {} stored bytes, more than the archive's {} bytes; the "
+                            "archive is corrupt, download it again",
+                            entry_display(zip, entry), st.comp_size, zip_bytes));
   // What the entry's stored bytes can hold: deflate expands at most 1032 times, a stored
   // entry not at all. (Other methods are bounded by the check above and the memory's.)
   if ((st.valid & ZIP_STAT_COMP_SIZE) && (st.valid & ZIP_STAT_COMP_METHOD) &&

@@ -141,7 +141,11 @@ std::vector<float> get_factors(ByteReader& r, std::size_t rows, std::size_t cols
     r.fail(fmt::format("{}: {} x {} values where the model needs {} x {}", field, got_rows,
                        got_cols, rows, cols));
   const auto enc = FactorEncoding(e);
-  if (factor_bytes(rows, cols, enc) - 9 > r.remaining())
+  // In doubles: rows and cols come from the file, and their product may not fit 64 bits.
+  const double row_bytes = enc == FactorEncoding::kQ8    ? 8.0 + double(cols)
+                           : enc == FactorEncoding::kF16 ? 2.0 * double(cols)
+                                                         : 4.0 * double(cols);
+  if (double(rows) * row_bytes > double(r.remaining()))
     r.fail(fmt::format("{}: {} x {} values do not fit the file", field, rows, cols));
   std::vector<float> v(rows * cols);
   if (enc == FactorEncoding::kF32) {

@@ -19,6 +19,8 @@ namespace btfgmm::detail {
 namespace {
 
 constexpr int kZstdLevel = 19;
+// The most a zstd frame can expand: 128 KiB from each block of at least 4 bytes (RFC 8878).
+constexpr double kZstdMaxRatio = 131072.0 / 4.0;
 // The columns of the mixture: ln w, ln sigma x 9, the six input means, the three colour means.
 constexpr int kComponentColumns = 1 + kVariables + kVariables;
 
@@ -248,6 +250,10 @@ void get_compact_components(ByteReader& r, BtfModel& m, MeanBrdfCoding coding) {
   for (auto& b : packed) b = r.get<std::uint8_t>("compressed codes");
   if (ZSTD_getFrameContentSize(packed.data(), packed.size()) != raw_size)
     r.fail("the compressed codes do not hold the size the file states");
+  // Before allocating for it: what the codes can hold at most.
+  if (double(raw_size) > kZstdMaxRatio * double(packed.size()))
+    r.fail(fmt::format("the compressed codes claim {} bytes, more than their {} bytes can hold",
+                       raw_size, packed.size()));
   std::vector<std::uint8_t> raw(static_cast<std::size_t>(raw_size));
   const std::size_t got = ZSTD_decompress(raw.data(), raw.size(), packed.data(), packed.size());
   if (ZSTD_isError(got) || got != raw.size()) r.fail("the compressed codes are corrupted");

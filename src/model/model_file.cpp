@@ -161,10 +161,12 @@ Header read_header(std::span<const std::uint8_t> bytes, const std::string& name)
                                                   "which no btfgmm writes; it is corrupted",
                                                   name));
   if (h.payload != bytes.size() - kHeaderBytes - kTrailerBytes)
-    throw Error(Error::Kind::kFormat,
-                fmt::format("model file '{}' is {} bytes but its header says {}; it is "
-                            "truncated or has trailing data: fit or copy it again",
-                            name, bytes.size(), h.payload + kHeaderBytes + kTrailerBytes));
+    throw Error(
+        Error::Kind::kFormat,
+        fmt::format("model file '{}' is {} bytes, a payload of {}, but its header says "
+                    "a payload of {} bytes; it is truncated or has trailing data: fit "
+                    "or copy it again",
+                    name, bytes.size(), bytes.size() - kHeaderBytes - kTrailerBytes, h.payload));
   std::uint32_t stored_crc;
   std::memcpy(&stored_crc, bytes.data() + bytes.size() - 4, 4);
   const auto crc = std::uint32_t(crc32(0L, bytes.data(), uInt(bytes.size() - 4)));
