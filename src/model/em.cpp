@@ -108,8 +108,8 @@ struct ChunkStats {
 };
 
 // Per view, float holds the sums of at most this many pixels' responsibilities (each at most
-// 1; a sum within 256 of float's 2^24) before they go to double: a chunk of up to 256 pixels
-// goes to double once.
+// 1, so a sum of at most 256, whose float rounding is below 2^-16 of it) before they go to
+// double: a chunk of up to 256 pixels goes to double once.
 constexpr std::size_t kViewFlush = 256;
 
 // A light's pixels are cut into chunks of about kChunkPixels, at most kMaxChunks of them: a
