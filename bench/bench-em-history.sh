@@ -33,19 +33,22 @@ done
 [ -x "$btfgmm" ] || { echo "bench-em-history: no btfgmm at '$btfgmm'; build first (make build) or give --btfgmm" >&2; exit 2; }
 command -v hyperfine >/dev/null || { echo "bench-em-history: needs hyperfine (Debian package hyperfine)" >&2; exit 2; }
 btfgmm=$(realpath "$btfgmm")
+repo=$(cd "$(dirname "$0")/.." && pwd)
 if [ -z "$work" ]; then
   work=$(mktemp -d)
-  trap 'git worktree remove --force "$work/src" 2>/dev/null || true; rm -rf "$work"' EXIT
+  trap 'git -C "$repo" worktree remove --force "$work/src" 2>/dev/null || true; rm -rf "$work"' EXIT
 fi
 mkdir -p "$work"
 
 if [ -z "$old" ]; then
   echo "building $rev's btfgmm in $work/src (minutes)" >&2
-  git worktree add --detach "$work/src" "$rev" >/dev/null
+  git -C "$repo" worktree add --detach "$work/src" "$rev" >/dev/null
   cmake -S "$work/src" -B "$work/build" -DCMAKE_BUILD_TYPE=Release -DBTFGMM_TESTS=OFF \
     -DBTFGMM_BENCH=OFF >/dev/null
   cmake --build "$work/build" -j"$(nproc)" --target btfgmm_cli >/dev/null
   old=$work/build/btfgmm
+else
+  rev=$old
 fi
 old=$(realpath "$old")
 

@@ -277,6 +277,53 @@ TEST(Em, SameModelWithOneOrTwoThreads) {
   }
 }
 
+// A tile of more than 4096 pixels (16 chunks of a light, each flushing its per-view sums
+// twice) and lights enough that 1 and 16 threads cut the lights into different batches: the
+// same model bit for bit.
+TEST(Em, SameModelWhateverTheThreadsAndTheBatchesOfLights) {
+  const SampleSet s = make_sample_set(small_btf(66, 66, DirectionSet::parse("rings:0/1,30/4,60/4"),
+                                                DirectionSet::parse("rings:0/1,45/3")));
+  ProductMixture a = initial_mixture(s, 12, 4), b = a;
+  EmConfig c;
+  c.max_iterations = 3;
+  c.threads = 1;
+  const EmResult ra = fit_em(s, a, c);
+  c.threads = 16;
+  const EmResult rb = fit_em(s, b, c);
+  EXPECT_EQ(ra.log_likelihood, rb.log_likelihood);
+  EXPECT_EQ(ra.final_log_likelihood, rb.final_log_likelihood);
+  ASSERT_EQ(a.size(), b.size());
+  for (std::size_t m = 0; m < a.size(); ++m) {
+    EXPECT_EQ(a.weight[m], b.weight[m]);
+    EXPECT_EQ(a.mean[m], b.mean[m]);
+    EXPECT_EQ(a.var[m], b.var[m]);
+  }
+}
+
+// With tile_wraps off the grid path fits the paper's plain model (what bench_fit compares with
+// Armadillo): the reference path with nothing wrapped, L to 1e-6 relative in every iteration.
+TEST(Em, PlainModelEqualsTheUnwrappedReferencePath) {
+  const Btf btf = small_btf(6, 5, DirectionSet::parse("rings:0/1,30/4,60/6"),
+                            DirectionSet::parse("rings:0/1,45/5"));
+  const SampleSet s = make_sample_set(btf);
+  ProductMixture a = initial_mixture(s, 8, 3), b = a;
+  EmConfig c;
+  c.max_iterations = 6;
+  c.tile_wraps = false;
+  const EmResult ra = fit_em(s, a, c);
+  const EmResult rb = fit_em_reference(explicit_samples(s), b, c);  // nothing wraps
+  ASSERT_EQ(ra.log_likelihood.size(), rb.log_likelihood.size());
+  for (std::size_t i = 0; i < ra.log_likelihood.size(); ++i)
+    EXPECT_NEAR(ra.log_likelihood[i], rb.log_likelihood[i], 1e-6 * std::abs(rb.log_likelihood[i]))
+        << "iteration " << i + 1;
+  EXPECT_NEAR(mean_log_likelihood(s, a, 0, false), mean_log_likelihood(explicit_samples(s), a),
+              1e-6 * std::abs(rb.final_log_likelihood));
+  // The wrapped fit is another model: its L differs.
+  ProductMixture w = initial_mixture(s, 8, 3);
+  c.tile_wraps = true;
+  EXPECT_NE(fit_em(s, w, c).log_likelihood.back(), ra.log_likelihood.back());
+}
+
 TEST(Samples, MeanBrdfAndResidualsAreExact) {
   const DirectionSet lights = DirectionSet::parse("rings:0/1,30/3");
   const Btf btf = small_btf(4, 3, lights, lights);

@@ -24,6 +24,7 @@
 
 #include <algorithm>
 #include <atomic>
+#include <cassert>
 #include <chrono>
 #include <cmath>
 #include <cstdint>
@@ -395,8 +396,10 @@ struct Combined {
 std::vector<const double*> lights_in_order(const std::vector<std::vector<double>>& all,
                                            std::size_t per) {
   std::vector<const double*> out;
-  for (const std::vector<double>& r : all)
+  for (const std::vector<double>& r : all) {
+    assert(r.size() % per == 0);
     for (std::size_t at = 0; at + per <= r.size(); at += per) out.push_back(&r[at]);
+  }
   return out;
 }
 
