@@ -26,6 +26,7 @@ import time
 
 MAX_COMPONENTS = 100
 PYTHON_BLOCK = "<python>"
+PYTHON_LINES = ("python3 -c ", "/usr/bin/python3 -c ")  # a one-line program, run as a block
 SWEEP_ITERATIONS = ["--iterations", "2"]  # every fit of a sweep or a fit --budget, unless set
 SMALL_GENERATE = ["--lights", "spiral:9", "--views", "spiral:4", "--supersample", "1"]
 
@@ -118,7 +119,7 @@ def main():
         python_path = os.path.join(os.path.dirname(binary), "python")
         for line in commands:
             start = time.time()
-            if line.startswith(PYTHON_BLOCK) or line.startswith("python3 "):
+            if line.startswith(PYTHON_BLOCK) or line.startswith(PYTHON_LINES):
                 code = line[len(PYTHON_BLOCK):] if line.startswith(PYTHON_BLOCK) else words_of(line)[2]
                 note = "ok" if run_python(code, work, python_path) else "skipped: no module"
                 print(f"{time.time() - start:6.2f} s  {note:18s} python: {code.splitlines()[0][:80]}")
