@@ -43,6 +43,20 @@ ErrorClasses register_errors(py::module_& m) {
   return e;
 }
 
+// numpy is imported up front, so that a Python without it is told what to install rather than
+// failing at the first array with pybind11's "numpy.core.multiarray failed to import".
+void require_numpy() {
+  try {
+    py::module_::import("numpy");
+  } catch (const py::error_already_set&) {
+    const std::string python = py::str(py::module_::import("sys").attr("executable"));
+    throw py::import_error("btfgmm needs numpy, which " + python +
+                           " cannot import: on Debian, apt install python3-numpy, and use the "
+                           "interpreter the module was built for (" BTFGMM_PYTHON_BUILT_FOR
+                           "; docs/PYTHON.md)");
+  }
+}
+
 }  // namespace
 
 std::string path_of(const py::handle& h, const char* what) {
@@ -76,6 +90,7 @@ PYBIND11_MODULE(btfgmm, m) {
       "btfgmm: measured material appearance (BTFs) as a Gaussian mixture, and the methods it is "
       "compared with. load() a model, eval() and decode() it, read_btf() data, fit() and "
       "compare() as the btfgmm command does (docs/PYTHON.md).";
+  require_numpy();
   static const ErrorClasses errors = register_errors(m);
   py::register_exception_translator([](std::exception_ptr p) {
     try {

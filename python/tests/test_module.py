@@ -7,6 +7,7 @@ import json
 import os
 import struct
 import subprocess
+import sys
 
 import numpy as np
 import pytest
@@ -256,3 +257,15 @@ def test_progress_and_stopping_a_fit(work):
         btfgmm.fit(work["btf"], tile=(0, 0, 6, 6), components=5, iterations=3, seed=2,
                    progress=stop_in_refinement)
     assert calls[:3] == ["EM"] * 3 and 3 < len(calls) < len(stages)
+
+
+def test_a_python_without_numpy_is_told_what_to_install():
+    # numpy made unimportable (as on a Python that lacks it); the module's folder on the path.
+    code = ("import sys; sys.modules['numpy'] = None\n"
+            "try:\n    import btfgmm\nexcept ImportError as e:\n    print(e)\n")
+    folder = os.path.dirname(btfgmm.__file__)
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                       env=dict(os.environ, PYTHONPATH=folder))
+    assert r.returncode == 0, r.stderr
+    assert "btfgmm needs numpy" in r.stdout and "apt install python3-numpy" in r.stdout
+    assert sys.executable in r.stdout and "docs/PYTHON.md" in r.stdout
