@@ -576,9 +576,11 @@ TEST(RenderCli, TileFitAutoRenderAndCompare) {
   r = run_cli("render " + p("btf") + " --compare " + p("btf") + " -o " + p("x.png"));
   EXPECT_EQ(r.status, 1);
   EXPECT_NE(r.out.find("--compare"), std::string::npos) << r.out;
-  r = run_cli("tile " + p("btf") + " --size 20x8");
+  r = run_cli("tile " + p("btf") + " --size 21x8");
   EXPECT_EQ(r.status, 1);
-  EXPECT_NE(r.out.find("smaller than the image"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("no larger than the image"), std::string::npos) << r.out;
+  r = run_cli("tile " + p("btf") + " --size 20x20");  // the whole image: judged across its wrap
+  EXPECT_EQ(r.status, 0) << r.out;
   fs::remove_all(dir);
 }
 

@@ -69,6 +69,49 @@ TEST(Tile, FindsBothPeriodsOfKnit) {
   EXPECT_GT(off.left_right, 3.0 * r.seam.left_right);
 }
 
+// The first `width` columns of every image: a BTF that no longer tiles across x.
+Btf first_columns(const Btf& btf, int width) {
+  Btf out(btf.lights(), btf.views(), width, btf.height(), btf.format());
+  for (std::size_t l = 0; l < btf.lights().size(); ++l)
+    for (std::size_t v = 0; v < btf.views().size(); ++v)
+      for (int y = 0; y < btf.height(); ++y)
+        for (int x = 0; x < width; ++x)
+          for (int c = 0; c < 3; ++c) out.at(l, v, x, y, c) = btf.at(l, v, x, y, c);
+  return out;
+}
+
+TEST(Tile, TheWholeImageIsATileJudgedAcrossItsWrap) {
+  // Generated knit repeats across its whole 40 pixels: as a tile, the whole image is seamless.
+  const Btf btf = periodic("knit", 40);
+  TileSearchConfig c;
+  c.min_width = c.max_width = c.min_height = c.max_height = 40;
+  c.images = 16;
+  const TileSearchResult r = find_seamless_tile(btf, c);
+  EXPECT_EQ(r.tile.x, 0);
+  EXPECT_EQ(r.tile.width, 40);
+  EXPECT_LT(r.seam.total, 0.2);
+  // Cut to 35 columns (3.5 stitches), the step across its wrap is a seam, and a 20-pixel tile
+  // (two stitches) inside it beats the whole image.
+  const Btf cut = first_columns(btf, 35);
+  const SeamError whole = seam_error(cut, {0, 0, 35, 40}, 16);
+  EXPECT_GT(whole.left_right, 1.0);
+  EXPECT_LT(whole.top_bottom, 0.2);
+  c.min_width = 18;
+  c.max_width = 35;
+  c.min_height = c.max_height = 40;
+  const TileSearchResult inside = find_seamless_tile(cut, c);
+  EXPECT_EQ(inside.tile.width % 10, 0) << inside.tile.width;
+  EXPECT_LT(inside.seam.total, whole.total);
+  c.max_width = 36;  // past the image: refused, naming the limit
+  try {
+    find_seamless_tile(cut, c);
+    ADD_FAILURE() << "a tile wider than the image was accepted";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("no larger than the image"), std::string::npos)
+        << e.what();
+  }
+}
+
 TEST(Tile, PrefersNearSquareTilesAndRanksTheBestSizes) {
   // Leather has no period shorter than the image: over 8-24 x 8-24 the seam error alone picks
   // a 16 x 8 strip here (seam error 0.374, against 0.458 for the 8 x 8 tile the score picks).
@@ -124,7 +167,7 @@ TEST(Tile, ParsesSizesAndRejectsNonsense) {
   }
   const Btf btf = periodic("bumps", 16);
   TileSearchConfig whole;
-  whole.min_width = whole.max_width = 16;
+  whole.min_width = whole.max_width = 17;  // wider than the image
   whole.min_height = whole.max_height = 8;
   EXPECT_THROW(find_seamless_tile(btf, whole), Error);
   EXPECT_THROW(seam_error(btf, {10, 0, 8, 8}), Error);  // outside

@@ -37,12 +37,11 @@ void check_config(const TileSearchConfig& c, int W, int H) {
                 fmt::format("tile size {}-{} x {}-{} is empty; give sizes >= 1 with the smaller "
                             "first, e.g. 20-28x24",
                             c.min_width, c.max_width, c.min_height, c.max_height));
-  if (c.max_width >= W || c.max_height >= H)
+  if (c.max_width > W || c.max_height > H)
     throw Error(Error::Kind::kArgument,
-                fmt::format("tile size up to {}x{} does not fit with a margin in the {}x{} image: "
-                            "a seam is judged against the column and row next to the tile, so "
-                            "give a tile smaller than the image (or fit the whole image without "
-                            "--tile)",
+                fmt::format("tile size up to {}x{} does not fit in the {}x{} image: give a tile "
+                            "no larger than the image (the whole image is judged by the step "
+                            "across its own wrap)",
                             c.max_width, c.max_height, W, H));
   const double cells = double(c.max_width - c.min_width + 1 + c.max_height - c.min_height + 1) *
                        double(W) * double(H);
@@ -86,6 +85,7 @@ class SeamSums {
             for (int c = 0; c < 3; ++c) {
               if (x0 + w < W) s += sq(at(x0 + w, c) - at(x0, c));
               if (x0 >= 1) s += sq(at(x0 - 1, c) - at(x0 + w - 1, c));
+              if (w == W) s += sq(at(0, c) - at(W - 1, c));  // the whole width: its wrap
             }
             ex_[wi][x0 * H + y] += s;
           }
@@ -110,6 +110,7 @@ class SeamSums {
             for (int c = 0; c < 3; ++c) {
               if (y0 + h < H) s += sq(at(y0 + h, c) - at(y0, c));
               if (y0 >= 1) s += sq(at(y0 - 1, c) - at(y0 + h - 1, c));
+              if (h == H) s += sq(at(0, c) - at(H - 1, c));  // the whole height: its wrap
             }
             ey_[hi][y0 * W + x] += s;
           }
@@ -158,8 +159,14 @@ class SeamSums {
       const std::size_t ux = std::size_t(x0), uy = std::size_t(y0);
       const double sx = px[wi][ux * (H + 1) + uy + std::size_t(h)] - px[wi][ux * (H + 1) + uy];
       const double sy = py[hi][uy * (W + 1) + ux + std::size_t(w)] - py[hi][uy * (W + 1) + ux];
-      const int nx = (x0 >= 1) + (x0 + w < W_), ny = (y0 >= 1) + (y0 + h < H_);
-      const double mx = sx / (per * h * nx), my = sy / (per * w * ny);
+      // A tile as wide (high) as the image has no neighbour column (row) to be judged against:
+      // its seam is the step across its wrap beyond a typical step (0 when the image tiles).
+      const bool whole_x = w == W_, whole_y = h == H_;
+      const int nx = whole_x ? 1 : (x0 >= 1) + (x0 + w < W_);
+      const int ny = whole_y ? 1 : (y0 >= 1) + (y0 + h < H_);
+      double mx = sx / (per * h * nx), my = sy / (per * w * ny);
+      if (whole_x) mx = std::max(0.0, mx - dx);
+      if (whole_y) my = std::max(0.0, my - dy);
       SeamError e;
       e.left_right = mx / std::max(dx, tiny);
       e.top_bottom = my / std::max(dy, tiny);
