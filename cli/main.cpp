@@ -40,9 +40,10 @@ int main(int argc, char** argv) {
     // the version or the usage error. Its own exit codes (105 for a value out of range, ...)
     // become the documented 2.
     if (err.get_exit_code() != 0) {
-      const std::string mistyped = btfgmm::cli::mistyped_name(app, argc, argv);
-      if (!mistyped.empty()) {
-        fmt::print(stderr, "btfgmm: error: {}\n", mistyped);
+      std::string plain = btfgmm::cli::mistyped_name(app, argc, argv);
+      if (plain.empty()) plain = btfgmm::cli::out_of_range(err);
+      if (!plain.empty()) {
+        fmt::print(stderr, "btfgmm: error: {}\n", plain);
         return 2;
       }
     }

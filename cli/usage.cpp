@@ -4,6 +4,8 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <charconv>
+#include <regex>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -73,6 +75,22 @@ std::string mistyped_name(const CLI::App& app, int argc, const char* const* argv
                          command->get_name(), name, did_you_mean(name, views), command->get_name());
   }
   return "";
+}
+
+std::string out_of_range(const CLI::ParseError& err) {
+  // CLI11's range check: "--components: Value 0 not in range 1 to 100000".
+  static const std::regex range(R"(^(-[-\w]+): Value (.*) not in range (\S+) to (\S+)$)");
+  std::smatch m;
+  const std::string what = err.what();
+  if (!std::regex_match(what, m, range)) return "";
+  const std::string value = m[2], low = m[3], high = m[4];
+  double number = 0;
+  const auto parsed = std::from_chars(value.data(), value.data() + value.size(), number);
+  const bool numeric = parsed.ec == std::errc() && parsed.ptr == value.data() + value.size();
+  const bool whole = low.find('.') == std::string::npos && high.find('.') == std::string::npos;
+  return fmt::format("{} {}: {}; give {} from {} to {}", m[1].str(), value,
+                     numeric ? "out of range" : "not a number",
+                     whole ? "a whole number" : "a number", low, high);
 }
 
 }  // namespace btfgmm::cli

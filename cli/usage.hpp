@@ -15,4 +15,8 @@ void print_overview(const CLI::App& app);
 // (and the nearest known name), or empty when the refusal is about something else.
 std::string mistyped_name(const CLI::App& app, int argc, const char* const* argv);
 
+// For a number CLI11 refused as out of its range (or not a number at all): the option, the
+// value and the range allowed in btfgmm's words; empty for any other refusal.
+std::string out_of_range(const CLI::ParseError& err);
+
 }  // namespace btfgmm::cli

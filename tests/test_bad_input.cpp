@@ -501,6 +501,22 @@ TEST_F(BadInput, MistypedOptionOrCommand) {
                      "'btfgmm --help' lists the options and commands"});
 }
 
+TEST_F(BadInput, NumbersOutOfRangeAndMethodsByPrefixInPlainWords) {
+  generate();
+  CliRun r = run("fit " + p("btf") + " -M 0 -o " + p("m.btfgmm"));
+  EXPECT_EQ(r.status, 2) << r.out;
+  expect_refused(r, {"--components 0: out of range; give a whole number from 1 to 100000"});
+  EXPECT_EQ(r.out.find("Run with --help"), std::string::npos) << "CLI11's own text: " << r.out;
+  r = run("fit " + p("btf") + " --iterations many -o " + p("m.btfgmm"));
+  EXPECT_EQ(r.status, 2) << r.out;
+  expect_refused(r, {"--iterations many: not a number; give a whole number from 1 to"});
+  r = run("fit " + p("btf") + " --method pca -o " + p("m.btfgmm"));
+  expect_refused(r, {"unknown method 'pca' (did you mean 'pca-btf' or 'pca-rf'?)"});
+  r = run("fit " + p("btf") + " --method PCA-BTF -o " + p("m.btfgmm"));
+  expect_refused(r, {"unknown method 'PCA-BTF' (did you mean 'pca-btf'?)"});
+  EXPECT_FALSE(fs::exists(p("m.btfgmm")));
+}
+
 // ---- limits before allocation (the library) --------------------------------------------
 
 using btfgmm::test::error_of;

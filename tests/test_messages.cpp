@@ -64,6 +64,21 @@ TEST(Messages, NearestNameIsWithinTwoEditsAndHalfTheName) {
   EXPECT_EQ(did_you_mean("velvet", std::vector<std::string_view>{"knit", "leather"}), "");
 }
 
+TEST(Messages, NearestNamesMatchByCaseAndPrefixBeforeEdits) {
+  const std::vector<std::string_view> methods{"gm", "pca-btf", "pca-rf", "lpca", "ptm-rf"};
+  EXPECT_EQ(did_you_mean("pca", methods), " (did you mean 'pca-btf' or 'pca-rf'?)");
+  EXPECT_EQ(did_you_mean("PCA-BTF", methods), " (did you mean 'pca-btf'?)");
+  EXPECT_EQ(did_you_mean("LPCA", methods), " (did you mean 'lpca'?)");
+  EXPECT_EQ(did_you_mean("Pca-Rt", methods), " (did you mean 'pca-rf'?)");  // case, then edits
+  EXPECT_EQ(nearest_names("p", methods), std::vector<std::string>{});       // one letter: no guess
+  const std::vector<std::string_view> many{"--a1", "--a2", "--a3", "--a4"};
+  // A prefix of more than three names lists none of them; the nearest by edits remains.
+  EXPECT_EQ(nearest_names("--a", many), std::vector<std::string>{"--a1"});
+  EXPECT_EQ(did_you_mean("pt", methods), " (did you mean 'ptm-rf'?)");
+  const std::string msg = error_of([] { find_method("pca"); });
+  EXPECT_NE(msg.find("'pca' (did you mean 'pca-btf' or 'pca-rf'?)"), std::string::npos) << msg;
+}
+
 TEST(Messages, MaterialsComeFromOneTableAndMistypingsGetTheNearest) {
   const std::vector<std::string> names = material_names();
   ASSERT_EQ(names.size(), materials().size());

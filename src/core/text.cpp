@@ -46,23 +46,55 @@ std::size_t edit_distance(std::string_view a, std::string_view b) {
   return row[b.size()];
 }
 
-std::string nearest_name(std::string_view given, std::span<const std::string_view> names) {
+namespace {
+
+// The names that start with `given` (case aside), when there are a few: "pca" for "pca-btf".
+std::vector<std::string> names_with_prefix(const std::string& given,
+                                           std::span<const std::string_view> names) {
+  constexpr std::size_t kMostShown = 3;
+  std::vector<std::string> out;
+  if (given.size() < 2) return out;
+  for (const std::string_view name : names)
+    if (lower(std::string(name)).starts_with(given)) out.emplace_back(name);
+  if (out.size() > kMostShown) out.clear();
+  return out;
+}
+
+}  // namespace
+
+std::vector<std::string> nearest_names(std::string_view given,
+                                       std::span<const std::string_view> names) {
+  const std::string g = lower(std::string(given));
+  for (const std::string_view name : names)  // the same name in other case: "PCA-BTF"
+    if (lower(std::string(name)) == g) return {std::string(name)};
+  if (std::vector<std::string> prefixed = names_with_prefix(g, names); !prefixed.empty())
+    return prefixed;
   std::string nearest;
   std::size_t best = 3;  // within two edits
   for (const std::string_view name : names) {
-    const std::size_t d = edit_distance(given, name);
+    const std::size_t d = edit_distance(g, lower(std::string(name)));
     // At most half the name's letters changed: "gn" is near "gm", "xy" is not.
     if (d < best && 2 * d <= name.size()) {
       best = d;
       nearest = std::string(name);
     }
   }
-  return nearest;
+  if (nearest.empty()) return {};
+  return {nearest};
+}
+
+std::string nearest_name(std::string_view given, std::span<const std::string_view> names) {
+  const std::vector<std::string> n = nearest_names(given, names);
+  return n.empty() ? std::string() : n.front();
 }
 
 std::string did_you_mean(std::string_view given, std::span<const std::string_view> names) {
-  const std::string n = nearest_name(given, names);
-  return n.empty() ? std::string() : fmt::format(" (did you mean '{}'?)", n);
+  const std::vector<std::string> n = nearest_names(given, names);
+  if (n.empty()) return {};
+  std::string list = fmt::format("'{}'", n.front());
+  for (std::size_t i = 1; i < n.size(); ++i)
+    list += fmt::format("{}'{}'", i + 1 == n.size() ? " or " : ", ", n[i]);
+  return fmt::format(" (did you mean {}?)", list);
 }
 
 double seconds_since(Clock::time_point start) {

@@ -6,6 +6,7 @@
 #include <span>
 #include <string>
 #include <string_view>
+#include <vector>
 
 namespace btfgmm {
 
@@ -18,10 +19,16 @@ std::string lower(std::string text);
 
 // The Levenshtein distance between two names: insertions, deletions and substitutions.
 std::size_t edit_distance(std::string_view a, std::string_view b);
-// The name among `names` nearest to `given` when a mistyping is likely (at most two edits, and
-// at most half of the name's letters), or empty. Ties go to the first name listed.
+// The names among `names` that `given` likely meant, case aside: the name itself in another
+// case; else the names it begins (up to three: "pca" gives pca-btf and pca-rf); else the
+// nearest by edit distance (at most two edits, and at most half of the name's letters; ties
+// go to the first listed). Empty when none is likely.
+std::vector<std::string> nearest_names(std::string_view given,
+                                       std::span<const std::string_view> names);
+// The first of nearest_names, or empty.
 std::string nearest_name(std::string_view given, std::span<const std::string_view> names);
-// " (did you mean 'NAME'?)" for the nearest name, or empty: the suffix of an error message.
+// " (did you mean 'A'?)", " (did you mean 'A' or 'B'?)" for nearest_names, or empty: the
+// suffix of an error message.
 std::string did_you_mean(std::string_view given, std::span<const std::string_view> names);
 
 // Wall-clock time for progress and timings.
