@@ -13,6 +13,7 @@
 #include <string_view>
 #include <system_error>
 #include <utility>
+#include <vector>
 
 #include "btfgmm/core/error.hpp"
 #include "btfgmm/core/limits.hpp"
@@ -66,7 +67,14 @@ Angles key(const Direction& d) {
 // The error for a file given as a BTF that is not a .zip: what it holds, where that is known
 // (io/file_kind.hpp), and what to give instead.
 Error not_a_btf(const fs::path& path) {
-  const std::optional<FileKind> kind = identify_file(read_file_start(path, 512));
+  const std::vector<std::uint8_t> head = read_file_start(path, 512);
+  if (is_model_file_start(head))
+    return Error(Error::Kind::kArgument,
+                 fmt::format("{0} is a btfgmm model, not a BTF; give the data it was fitted to "
+                             "(btfgmm info {0} names it), or go on fitting the model with "
+                             "'btfgmm fit --continue {0} --iterations N -o NEW.btfgmm'",
+                             path.string()));
+  const std::optional<FileKind> kind = identify_file(head);
   using C = FileKind::Class;
   const std::string fix =
       !kind                       ? ""

@@ -113,4 +113,11 @@ std::optional<std::string_view> unread_image_format_from_name(const std::string&
   return std::nullopt;
 }
 
+bool is_model_file_start(std::span<const std::uint8_t> head) {
+  using namespace std::string_view_literals;
+  return at(head, 0,
+            "\x89"
+            "BTFGMM\n"sv);
+}
+
 }  // namespace btfgmm

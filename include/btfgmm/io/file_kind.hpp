@@ -28,6 +28,10 @@ struct FileKind {
 // none (a btfgmm file matches none).
 std::optional<FileKind> identify_file(std::span<const std::uint8_t> head);
 
+// Whether `head` starts with the magic bytes of a btfgmm model file (docs/FORMAT.md): for the
+// messages of the readers of data, which a model given in its place should name as a model.
+bool is_model_file_start(std::span<const std::uint8_t> head);
+
 // An image format btfgmm does not read, from a file name's extension: "TIFF" for .tif or
 // .tiff, "BMP", "GIF", "WebP", "Radiance HDR", "PNM", "TGA", "JPEG 2000", "HEIF", any case.
 std::optional<std::string_view> unread_image_format_from_name(const std::string& name);
