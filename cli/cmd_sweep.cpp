@@ -243,13 +243,16 @@ void run_sweep_command(const SweepOptions& o) {
     std::cout << text;
   else
     print_table(s);
+  if (s.models.empty() && s.stopped) {
+    fmt::print(stderr, "sweep: interrupted before any model was fitted; {} holds only sweep.json\n",
+               o.out);
+    std::exit(130);
+  }
   if (s.models.empty())
-    throw Error(
-        Error::Kind::kArgument,
-        s.stopped ? std::string("sweep: interrupted before any model was fitted")
-                  : fmt::format("sweep: no setting could be fitted to this tile (the "
-                                "first: {} {}: {}); give a larger tile or other sizes",
-                                s.skipped[0].method, s.skipped[0].settings, s.skipped[0].message));
+    throw Error(Error::Kind::kArgument,
+                fmt::format("sweep: no setting could be fitted to this tile (the "
+                            "first: {} {}: {}); give a larger tile or other sizes",
+                            s.skipped[0].method, s.skipped[0].settings, s.skipped[0].message));
   ReportOptions ro;
   ro.command = "sweep";
   ro.data = &tile;

@@ -107,7 +107,7 @@ def main():
         # The refinement's steps: the best model met is written, complete.
         code, took, err = run_until(fit + ["-M", "200", "--iterations", "2",
                                            "--refine-steps", "100000", "-o", "refine.btfgmm"],
-                                    work, r"refin.*step +[1-9]", delay=0.5)
+                                    work, r"^refin", delay=2.0)
         check("fit, in the refinement", code, took, err, (130,))
         must_succeed([btfgmm, "info", "refine.btfgmm"], work)
 
