@@ -42,7 +42,7 @@ void check_config(const TileSearchConfig& c, int W, int H) {
                 fmt::format("tile size up to {}x{} does not fit with a margin in the {}x{} image: "
                             "a seam is judged against the column and row next to the tile, so "
                             "give a tile smaller than the image (or fit the whole image without "
-                            "--tile)",
+                            "`tile`)",
                             c.max_width, c.max_height, W, H));
   const double cells = double(c.max_width - c.min_width + 1 + c.max_height - c.min_height + 1) *
                        double(W) * double(H);
