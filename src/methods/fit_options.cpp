@@ -21,7 +21,10 @@ constexpr unsigned kAnyRoute =
 constexpr unsigned kMixtureRoutes = FitRoute::kNew | FitRoute::kResume | FitRoute::kContinue;
 constexpr double kMaxSize = 100000;
 
-// Which method takes which option of the fit, and its range (fit_options.hpp).
+// Which method takes which option of the fit, and its range (fit_options.hpp). Each method
+// checks the sizes it takes against the tile itself (its message names the range the tile
+// allows), and refuses the other methods' sizes; check_fit_options refuses what cannot apply
+// with a request and the mixture's options given to another method.
 constexpr FitOptionRule kRules[] = {
     {.field = "output",
      .methods = "all",
@@ -29,7 +32,7 @@ constexpr FitOptionRule kRules[] = {
     {.field = "method", .methods = "all", .routes = unsigned(FitRoute::kNew)},
     {.field = "tile", .methods = "all", .routes = FitRoute::kNew | FitRoute::kBudget},
     {.field = "components",
-     .methods = "all",
+     .methods = "gm pca-btf pca-rf lpca",
      .routes = unsigned(FitRoute::kNew),
      .min = 1,
      .max = kMaxSize},
@@ -55,7 +58,11 @@ constexpr FitOptionRule kRules[] = {
      .min = 1,
      .max = kMaxRefineSteps},
     {.field = "epsilon", .methods = "gm", .routes = kMixtureRoutes, .min = 0, .max = 1},
-    {.field = "iterations", .methods = "all", .routes = kAnyRoute, .min = 1, .max = kMaxSize},
+    {.field = "iterations",
+     .methods = "gm lpca plm-rf",
+     .routes = kAnyRoute,
+     .min = 1,
+     .max = kMaxSize},
     {.field = "levels",
      .methods = "3d-car 2d-car gmrf",
      .routes = unsigned(FitRoute::kNew),
