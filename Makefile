@@ -67,7 +67,7 @@ fuzz-long: deps
 # The size limits of the library's sources (docs/ARCHITECTURE.md): files <= 600 lines,
 # functions <= 80 lines.
 sizes:
-	@scripts/check-sizes src
+	@scripts/check-sizes src cli bench python
 
 # The layers include one another one way (docs/ARCHITECTURE.md).
 layers:

@@ -90,15 +90,13 @@ void process_stages(const Options& o) {
   };
   const std::shared_ptr<const btfgmm::Representation> model = btfgmm::load_representation(o.model);
   lap("load model");
-  const btfgmm::Mesh mesh = btfgmm::make_mesh("sphere");
-  const btfgmm::Camera camera = btfgmm::Camera::orbit({60, 0}, mesh.radius(), mesh.center(), 30);
-  const btfgmm::Light light = btfgmm::Light::directional({45, 30}, 1.0);
+  const btfgmm::Scene defaults = btfgmm::build_scene({});  // the render command's scene
   lap("mesh and camera");
   btfgmm::RenderSettings s;
   s.width = s.height = o.size;
   const btfgmm::ModelFrame& frame = model->frame();
-  const btfgmm::SurfaceBuffer sb =
-      btfgmm::rasterize(mesh, camera, light, s, frame.width, frame.height);
+  const btfgmm::SurfaceBuffer sb = btfgmm::rasterize(defaults.mesh, defaults.camera, defaults.light,
+                                                     s, frame.width, frame.height);
   lap("geometry");
   const btfgmm::RepresentationEvaluator ev(model, s.tolerance);
   lap("evaluator set-up");

@@ -7,7 +7,7 @@
 
 namespace btfgmm::cli {
 
-struct BudgetFitOptions {
+struct BudgetFitArguments {
   std::string input, out, tile;
   std::uint64_t budget = 0;  // 0: from ratio
   double ratio = 0.0;        // 0: budget given
@@ -16,6 +16,6 @@ struct BudgetFitOptions {
   bool overwrite = false, quiet = false;
 };
 
-void run_budget_fit(const BudgetFitOptions& o);
+void run_budget_fit(const BudgetFitArguments& o);
 
 }  // namespace btfgmm::cli

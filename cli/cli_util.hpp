@@ -26,21 +26,17 @@
 
 namespace btfgmm::cli {
 
-// "N" or "WxH".
-inline std::pair<int, int> parse_size(const std::string& text) {
-  const std::size_t x = text.find('x');
-  const std::string a = text.substr(0, x), b = x == std::string::npos ? a : text.substr(x + 1);
-  int w = 0, h = 0;
-  const auto ra = std::from_chars(a.data(), a.data() + a.size(), w);
-  const auto rb = std::from_chars(b.data(), b.data() + b.size(), h);
-  if (a.empty() || b.empty() || ra.ec != std::errc() || rb.ec != std::errc() ||
-      ra.ptr != a.data() + a.size() || rb.ptr != b.data() + b.size() || w < 1 || h < 1 ||
-      w > 65536 || h > 65536)
-    throw Error(Error::Kind::kArgument,
-                fmt::format("--size '{}' is not a size; give N or WxH pixels (1..65536), e.g. "
-                            "256 or 320x240",
-                            text));
-  return {w, h};
+// The command's spelling of an option the library names by its field (core/text.hpp,
+// option_name): "refine_steps" is --refine-steps.
+inline std::string command_line_option(std::string_view field) {
+  std::string flag = "--" + std::string(field);
+  std::replace(flag.begin(), flag.end(), '_', '-');
+  return flag;
+}
+
+// A library message as the command shows it: the options it names spelled as flags.
+inline std::string command_line_text(std::string_view message) {
+  return btfgmm::spell_options(message, command_line_option);
 }
 
 // That a file can be created in the folder `dir` (a probe file, removed at once), so a
@@ -88,6 +84,13 @@ inline void check_output_folder(const std::filesystem::path& out, bool overwrite
 }
 
 // A file to be written: its folder must exist; an existing file only with --overwrite.
+// `text` written to `path` atomically (io/files.hpp); `what` names it in messages.
+inline void write_text(const std::filesystem::path& path, const std::string& text,
+                       const char* what) {
+  btfgmm::write_file_atomically(
+      path, std::span(reinterpret_cast<const std::uint8_t*>(text.data()), text.size()), what);
+}
+
 inline void check_output_file(const std::filesystem::path& out, bool overwrite) {
   std::error_code ec;
   const auto dir = out.parent_path().empty() ? std::filesystem::path(".") : out.parent_path();

@@ -27,16 +27,12 @@ namespace {
 
 namespace fs = std::filesystem;
 
-struct CompareOptions {
+struct CompareArguments {
   std::string btf, report;
   std::vector<std::string> models;
   std::size_t worst = 3;
   bool json = false, overwrite = false, quiet = false, force = false;
 };
-
-bool same_tile(const Tile& a, const Tile& b) {
-  return a.x == b.x && a.y == b.y && a.width == b.width && a.height == b.height;
-}
 
 std::string pair_text(const ModelFrame& m, std::size_t image) {
   const std::size_t nv = m.views.size();
@@ -123,7 +119,7 @@ bool is_btf_path(const std::string& path) {
 
 // The BTF comes first, then the models: a model first, with the BTF after it, is the order
 // reversed, and the message shows the command in the right order.
-void check_argument_order(const CompareOptions& o) {
+void check_argument_order(const CompareArguments& o) {
   if (!is_model_path(o.btf)) return;
   std::vector<std::string> btfs, models{o.btf};
   for (const std::string& m : o.models) (is_btf_path(m) ? btfs : models).push_back(m);
@@ -136,21 +132,32 @@ void check_argument_order(const CompareOptions& o) {
 
 // A model's tile of the data against the data it records (check_fitted_data).
 DataMatch check_data(const Representation& model, const std::string& name, const Btf& tile,
-                     const BtfInfo& info, const CompareOptions& o) {
+                     const BtfInfo& info, const CompareArguments& o) {
   return enforce_data_check(check_fitted_data(model, name, tile, {o.btf, info.width, info.height}),
                             o.force, o.quiet, "compare");
 }
 
-void run_compare(const CompareOptions& o) {
-  check_argument_order(o);
-  if (!o.report.empty()) check_output_folder(o.report, o.overwrite);
-  const BtfSource src = BtfSource::open(o.btf);
-  const BtfInfo& info = src.info();
-  std::optional<Btf> tile_data, first_tile;
-  std::vector<ModelComparison> results;
-  btfgmm::CompareOptions co;
-  co.worst_pairs = o.worst;
-  // Every model is read and checked against the BTF before any work.
+// The models side by side, those on the Pareto front of PSNR against the file's compression
+// ratio marked.
+void print_models_table(const std::vector<ModelComparison>& results) {
+  const std::vector<bool> front = pareto_front(results);
+  fmt::print("\n{:<36} {:<8} {:<14} {:>9} {:>8} {:>7} {:>10} {:>10} {:>10} {:>8}  {}\n", "model",
+             "method", "size", "RMSE", "PSNR dB", "SSIM", "C.R. paper", "C.R. file", "file",
+             "decode s", "Pareto");
+  for (std::size_t k = 0; k < results.size(); ++k) {
+    const ModelComparison& c = results[k];
+    fmt::print("{:<36} {:<8} {:<14} {:>9.4g} {:>8} {:>7.4f} {:>10} {:>10} {:>10} {:>8.3f}  {}\n",
+               c.name, c.model->method(), c.model->size_text(), c.quality.rmse,
+               db(c.quality.psnr_db), c.quality.ssim,
+               fmt::format("1:{:.1f}", c.model->paper_ratio()),
+               fmt::format("1:{:.1f}", c.model->file_ratio(c.file_bytes)),
+               human_bytes(double(c.file_bytes)), c.decode_seconds, front[k] ? "*" : "");
+  }
+}
+
+// Every model read and checked against the BTF's frame.
+std::vector<std::shared_ptr<const Representation>> read_models(const CompareArguments& o,
+                                                               const BtfInfo& info) {
   std::vector<std::shared_ptr<const Representation>> models;
   for (const std::string& path : o.models) {
     std::error_code ec;
@@ -162,20 +169,34 @@ void run_compare(const CompareOptions& o) {
     models.push_back(load_representation(path));
     check_model_frame(*models.back(), path, info, o.btf);
   }
+  return models;
+}
+
+void run_compare(const CompareArguments& o) {
+  check_argument_order(o);
+  if (!o.report.empty()) check_output_folder(o.report, o.overwrite);
+  const BtfSource src = BtfSource::open(o.btf);
+  const BtfInfo& info = src.info();
+  std::optional<Btf> tile_data, first_tile;
+  std::vector<ModelComparison> results;
+  btfgmm::CompareOptions co;
+  co.worst_pairs = o.worst;
+  // Every model is read and checked against the BTF before any work.
+  const std::vector<std::shared_ptr<const Representation>> models = read_models(o, info);
   // Then each model's tile of the data is the data it was fitted to, by its provenance.
   std::vector<DataMatch> matches;
   for (std::size_t k = 0; k < models.size(); ++k) {
     const ModelFrame& m = models[k]->frame();
-    const Tile tile{m.origin.x, m.origin.y, m.width, m.height};
-    if (!tile_data || !same_tile(tile_data->origin(), tile)) tile_data = src.load(tile);
+    const Tile tile{.x = m.origin.x, .y = m.origin.y, .width = m.width, .height = m.height};
+    if (!tile_data || tile_data->origin() != tile) tile_data = src.load(tile);
     matches.push_back(check_data(*models[k], o.models[k], *tile_data, info, o));
   }
   for (std::size_t k = 0; k < models.size(); ++k) {
     const auto t0 = Clock::now();
     const ModelFrame& m = models[k]->frame();
     const std::string& path = o.models[k];
-    const Tile tile{m.origin.x, m.origin.y, m.width, m.height};
-    if (!tile_data || !same_tile(tile_data->origin(), tile)) tile_data = src.load(tile);
+    const Tile tile{.x = m.origin.x, .y = m.origin.y, .width = m.width, .height = m.height};
+    if (!tile_data || tile_data->origin() != tile) tile_data = src.load(tile);
     results.push_back(
         compare_model(*tile_data, models[k], path, std::uint64_t(fs::file_size(path)), co));
     if (k == 0 && !o.report.empty()) first_tile = *tile_data;  // the report's side by side
@@ -197,23 +218,7 @@ void run_compare(const CompareOptions& o) {
       if (i) fmt::print("\n");
       print_comparison(results[i]);
     }
-    if (results.size() > 1) {
-      // The models side by side, those on the Pareto front of PSNR against the file's
-      // compression ratio marked.
-      const std::vector<bool> front = pareto_front(results);
-      fmt::print("\n{:<36} {:<8} {:<14} {:>9} {:>8} {:>7} {:>10} {:>10} {:>10} {:>8}  {}\n",
-                 "model", "method", "size", "RMSE", "PSNR dB", "SSIM", "C.R. paper", "C.R. file",
-                 "file", "decode s", "Pareto");
-      for (std::size_t k = 0; k < results.size(); ++k) {
-        const ModelComparison& c = results[k];
-        fmt::print(
-            "{:<36} {:<8} {:<14} {:>9.4g} {:>8} {:>7.4f} {:>10} {:>10} {:>10} {:>8.3f}  {}\n",
-            c.name, c.model->method(), c.model->size_text(), c.quality.rmse, db(c.quality.psnr_db),
-            c.quality.ssim, fmt::format("1:{:.1f}", c.model->paper_ratio()),
-            fmt::format("1:{:.1f}", c.model->file_ratio(c.file_bytes)),
-            human_bytes(double(c.file_bytes)), c.decode_seconds, front[k] ? "*" : "");
-      }
-    }
+    if (results.size() > 1) print_models_table(results);
   }
   if (!o.report.empty()) {
     ReportOptions ro;
@@ -230,8 +235,8 @@ void run_compare(const CompareOptions& o) {
 
 }  // namespace
 
-void register_compare_commands(CLI::App& app, Commands& commands) {
-  auto opt = std::make_shared<CompareOptions>();
+void register_compare_command(CLI::App& app, Commands& commands) {
+  auto opt = std::make_shared<CompareArguments>();
   auto* c = app.add_subcommand(
       "compare",
       "Measure models against the BTF they were fitted to: RMSE, PSNR, SSIM, compression "

@@ -26,7 +26,7 @@ namespace {
 
 namespace fs = std::filesystem;
 
-struct SweepOptions {
+struct SweepArguments {
   std::string btf, tile, out, methods, precision;
   std::vector<std::size_t> components;  // sizes instead of the ladders
   int iterations = 0, threads = 0;
@@ -36,7 +36,7 @@ struct SweepOptions {
 };
 
 // --methods "gm,pca-btf": every name known (the nearest suggested), none twice; empty: all.
-std::vector<std::string> method_names(const SweepOptions& o) {
+std::vector<std::string> method_names(const SweepArguments& o) {
   std::vector<std::string> names;
   if (o.methods.empty() && !o.methods_given) return names;
   std::string rest = o.methods;
@@ -68,7 +68,7 @@ std::vector<std::string> method_names(const SweepOptions& o) {
 
 // The request the options make: methods, encoding, iterations, and --components as the
 // sizes of every method in place of its ladder.
-SweepRequest sweep_request(const SweepOptions& o) {
+SweepRequest sweep_request(const SweepArguments& o) {
   SweepRequest r;
   r.methods = method_names(o);
   if (!o.precision.empty()) r.encoding = parse_factor_encoding(o.precision, "--precision");
@@ -122,7 +122,7 @@ class ProgressPrinter {
         break;
       }
       case Event::kSkipped:
-        fmt::print(stderr, "{}: skipped: {}\n", head, p.message);
+        fmt::print(stderr, "{}: skipped: {}\n", head, command_line_text(p.message));
         break;
     }
   }
@@ -182,7 +182,7 @@ nlohmann::json model_json(const SweepOutcome& s, std::size_t k, bool kept) {
   return j;
 }
 
-nlohmann::json sweep_json(const SweepOptions& o, const Btf& tile, const SweepOutcome& s) {
+nlohmann::json sweep_json(const SweepArguments& o, const Btf& tile, const SweepOutcome& s) {
   nlohmann::json j;
   j["btf"] = o.btf;
   j["tile"] = {tile.origin().x, tile.origin().y, tile.width(), tile.height()};
@@ -209,7 +209,7 @@ nlohmann::json sweep_json(const SweepOptions& o, const Btf& tile, const SweepOut
 
 // ---- the command ---------------------------------------------------------------------------
 
-void run_sweep_command(const SweepOptions& o) {
+void run_sweep_command(const SweepArguments& o) {
   SweepRequest r = sweep_request(o);  // the options checked before any work
   check_output_folder(o.out, o.overwrite);
   const auto t0 = Clock::now();
@@ -234,6 +234,9 @@ void run_sweep_command(const SweepOptions& o) {
     const StopOnSignals stop_on_signals;
     s = run_sweep(tile, r);
   }
+  // The methods' messages name options as the command spells them, in the table, sweep.json
+  // and the report.
+  for (SkippedSetting& k : s.skipped) k.message = command_line_text(k.message);
   const nlohmann::json j = sweep_json(o, tile, s);
   const std::string text = json_text(j);
   write_file_atomically(fs::path(o.out) / "sweep.json",
@@ -285,8 +288,8 @@ std::string methods_help() {
 
 }  // namespace
 
-void register_sweep_commands(CLI::App& app, Commands& commands) {
-  auto opt = std::make_shared<SweepOptions>();
+void register_sweep_command(CLI::App& app, Commands& commands) {
+  auto opt = std::make_shared<SweepArguments>();
   auto* c = app.add_subcommand(
       "sweep",
       "Fit every method to a tile at each size of its ladder (compression 1:5 to 1:500), "

@@ -1,5 +1,5 @@
-// The btfgmm subcommands. Each group registers its subcommands on the app and the action to
-// run when one of them was chosen; main() parses and runs it.
+// The btfgmm subcommands. Each registers itself on the app with the action to run when it was
+// chosen; main() parses and runs it.
 #pragma once
 
 #include <CLI/CLI.hpp>
@@ -15,12 +15,18 @@ struct Command {
 };
 using Commands = std::vector<Command>;
 
-void register_data_commands(CLI::App& app, Commands& commands);     // generate, info
-void register_model_commands(CLI::App& app, Commands& commands);    // fit, decode, eval
-void register_compare_commands(CLI::App& app, Commands& commands);  // compare
-void register_render_commands(CLI::App& app, Commands& commands);   // render, tile
-void register_sweep_commands(CLI::App& app, Commands& commands);    // sweep
-void register_view_commands(CLI::App& app, Commands& commands);     // view, export-shader
-void register_texture_commands(CLI::App& app, Commands& commands);  // rangemap
+// One command a file: cmd_NAME.cpp registers the command NAME.
+void register_generate_command(CLI::App& app, Commands& commands);
+void register_info_command(CLI::App& app, Commands& commands);
+void register_fit_command(CLI::App& app, Commands& commands);
+void register_decode_command(CLI::App& app, Commands& commands);
+void register_eval_command(CLI::App& app, Commands& commands);
+void register_compare_command(CLI::App& app, Commands& commands);
+void register_render_command(CLI::App& app, Commands& commands);
+void register_tile_command(CLI::App& app, Commands& commands);
+void register_sweep_command(CLI::App& app, Commands& commands);
+void register_view_command(CLI::App& app, Commands& commands);
+void register_export_shader_command(CLI::App& app, Commands& commands);
+void register_rangemap_command(CLI::App& app, Commands& commands);
 
 }  // namespace btfgmm::cli

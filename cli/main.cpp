@@ -5,6 +5,7 @@
 #include <CLI/CLI.hpp>
 
 #include "btfgmm/core/error.hpp"
+#include "cli_util.hpp"
 #include "commands.hpp"
 #include "usage.hpp"
 
@@ -21,13 +22,13 @@ int main(int argc, char** argv) {
       "  btfgmm generate -o corduroy32/ && btfgmm fit corduroy32/ --tile 0,0,16,16 -M 100 -o "
       "corduroy.btfgmm && btfgmm compare corduroy32/ corduroy.btfgmm");
   btfgmm::cli::Commands commands;
-  btfgmm::cli::register_data_commands(app, commands);
-  btfgmm::cli::register_model_commands(app, commands);
-  btfgmm::cli::register_compare_commands(app, commands);
-  btfgmm::cli::register_render_commands(app, commands);
-  btfgmm::cli::register_sweep_commands(app, commands);
-  btfgmm::cli::register_view_commands(app, commands);
-  btfgmm::cli::register_texture_commands(app, commands);
+  using namespace btfgmm::cli;
+  for (const auto register_command :
+       {register_generate_command, register_info_command, register_fit_command,
+        register_decode_command, register_eval_command, register_compare_command,
+        register_render_command, register_tile_command, register_sweep_command,
+        register_view_command, register_export_shader_command, register_rangemap_command})
+    register_command(app, commands);
 
   if (argc == 1) {  // a bare `btfgmm`: what it does, its commands and an example
     btfgmm::cli::print_overview(app);
@@ -54,7 +55,7 @@ int main(int argc, char** argv) {
     for (const auto& c : commands)
       if (*c.app) c.run();
   } catch (const btfgmm::Error& err) {
-    fmt::print(stderr, "btfgmm: error: {}\n", err.what());
+    fmt::print(stderr, "btfgmm: error: {}\n", btfgmm::cli::command_line_text(err.what()));
     return 1;
   } catch (const std::exception& err) {
     fmt::print(stderr, "btfgmm: internal error: {}\n", err.what());

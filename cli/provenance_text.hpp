@@ -17,6 +17,7 @@
 #include "btfgmm/measure/compare.hpp"
 #include "btfgmm/measure/compare_data.hpp"
 #include "btfgmm/model/provenance.hpp"
+#include "cli_util.hpp"
 
 namespace btfgmm::cli {
 
@@ -90,11 +91,12 @@ inline btfgmm::DataMatch enforce_data_check(const btfgmm::DataCheck& c, bool for
                                             const char* action) {
   if (c.match == btfgmm::DataMatch::kSame) return c.match;
   if (c.match == btfgmm::DataMatch::kNotRecorded) {
-    if (!quiet) fmt::print(stderr, "note: {}\n", c.message);
+    if (!quiet) fmt::print(stderr, "note: {}\n", command_line_text(c.message));
     return c.match;
   }
   btfgmm::refuse_other_data(c, force, action);
-  fmt::print(stderr, "warning: {}; going on with the {} (--force)\n", c.message, action);
+  fmt::print(stderr, "warning: {}; going on with the {} (--force)\n", command_line_text(c.message),
+             action);
   return c.match;
 }
 

@@ -2,9 +2,12 @@
 // module_data.cpp: read_btf, fit and compare).
 #include <pybind11/pybind11.h>
 
+#include <algorithm>
 #include <exception>
 #include <string>
+#include <string_view>
 
+#include "btfgmm/core/text.hpp"
 #include "module.hpp"
 
 namespace btfgmm::python {
@@ -29,6 +32,20 @@ PyObject* new_error(py::module_& m, const char* name, PyObject* bases, const cha
 
 PyObject* bases(PyObject* a, PyObject* b) {
   return py::make_tuple(py::handle(a), py::handle(b)).release().ptr();
+}
+
+// The options a library message names (core/text.hpp, option_name), as this module's messages
+// spell them: as the command's flags, "--refine-steps" for the field refine_steps (the keyword
+// of fit()), so that a message reads the same from the command and from Python and the
+// documentation quotes one text.
+std::string option_spelling(std::string_view field) {
+  std::string flag = "--" + std::string(field);
+  std::replace(flag.begin(), flag.end(), '_', '-');
+  return flag;
+}
+
+std::string message_text(std::string_view message) {
+  return spell_options(message, option_spelling);
 }
 
 ErrorClasses register_errors(py::module_& m) {
@@ -100,7 +117,7 @@ PYBIND11_MODULE(btfgmm, m) {
       PyObject* cls = e.kind() == Kind::kIo       ? errors.io
                       : e.kind() == Kind::kFormat ? errors.format
                                                   : errors.argument;
-      PyErr_SetString(cls, e.what());
+      PyErr_SetString(cls, btfgmm::python::message_text(e.what()).c_str());
     }
   });
   bind_model(m);

@@ -5,11 +5,13 @@
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
 
+#include <algorithm>
 #include <atomic>
 #include <filesystem>
 #include <optional>
 #include <string>
 #include <utility>
+#include <vector>
 
 #include "module.hpp"
 
@@ -213,13 +215,43 @@ py::object compare(const py::object& data, const Model& model, bool force) {
     const BtfInfo& info = src.info();
     check_model_frame(*model.rep, name, info, d.path);
     const ModelFrame& f = model.rep->frame();
-    const Btf tile = src.load({f.origin.x, f.origin.y, f.width, f.height});
+    const Btf tile =
+        src.load({.x = f.origin.x, .y = f.origin.y, .width = f.width, .height = f.height});
     const DataCheck check =
         check_fitted_data(*model.rep, name, tile, {d.path, info.width, info.height});
     refuse_other_data(check, force, "compare");
     j = comparison_json(d.path, compare_model(tile, model.rep, name, bytes), check.match);
   }
   return to_python(j);
+}
+
+// fit()'s documentation, with the methods that take each option from the one table of the
+// fit's options (methods/fit_options.hpp), which also checks them.
+const char* fit_doc() {
+  static const std::string doc = [] {
+    std::string d =
+        "Fits a model to a BTF (a path, or a Btf from read_btf: its tile) with the options and "
+        "defaults of `btfgmm fit` (0 or None: the method's default); the same data, options "
+        "and seed give the model `btfgmm fit` writes. progress(fraction, stage) is called as it "
+        "goes; Ctrl-C stops it (KeyboardInterrupt). Options of some methods only:";
+    const std::vector<std::string_view> keywords = given_fields(FitOptions{.method = "-",
+                                                                           .components = 1,
+                                                                           .clusters = 1,
+                                                                           .degree = 1,
+                                                                           .iterations = 1,
+                                                                           .levels = 1,
+                                                                           .epsilon = 0.0,
+                                                                           .precision = "-",
+                                                                           .objective = "-",
+                                                                           .refine_steps = 1});
+    for (const FitOptionRule& rule : fit_option_rules())
+      if (rule.methods != "all" &&
+          std::find(keywords.begin(), keywords.end(), rule.field) != keywords.end())
+        d += fmt::format(" {} ({});", rule.field, rule.methods);
+    d.back() = '.';
+    return d;
+  }();
+  return doc.c_str();
 }
 
 }  // namespace
@@ -230,11 +262,7 @@ void bind_fit(py::module_& m) {
         py::arg("degree") = 0, py::arg("iterations") = 0, py::arg("epsilon") = py::none(),
         py::arg("seed") = 1, py::arg("threads") = 0, py::arg("precision") = py::none(),
         py::arg("objective") = py::none(), py::arg("levels") = 0, py::arg("refine_steps") = 0,
-        py::arg("progress") = py::none(),
-        "Fits a model to a BTF (a path, or a Btf from read_btf: its tile) with the options "
-        "and defaults of `btfgmm fit` (0 or None: the method's default); the same data, "
-        "options and seed give the model `btfgmm fit` writes. progress(fraction, stage) is "
-        "called as it goes; Ctrl-C stops it (KeyboardInterrupt).");
+        py::arg("progress") = py::none(), fit_doc());
   m.def("compare", &compare, py::arg("data"), py::arg("model"), py::kw_only(),
         py::arg("force") = false,
         "Measures a model against the BTF it was fitted to (a path, or a Btf from read_btf: "

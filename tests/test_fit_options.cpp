@@ -4,8 +4,11 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <string>
+#include <string_view>
+#include <vector>
 
 #include "btfgmm/btfgmm.hpp"
 #include "test_util.hpp"
@@ -146,6 +149,52 @@ TEST(FitOptions, OtherDataIsRefusedUnlessForced) {
             std::string::npos);
   refuse_other_data(other, true, "compare");
   refuse_other_data({DataMatch::kNotRecorded, "none"}, false, "compare");
+}
+
+// The table of the fit's options names only methods the registry knows, gives each option
+// one row, and a range where it has one in order.
+TEST(FitOptions, TheTableNamesKnownMethodsOnceEach) {
+  std::vector<std::string_view> fields;
+  for (const FitOptionRule& r : fit_option_rules()) {
+    EXPECT_EQ(std::count(fields.begin(), fields.end(), r.field), 0) << r.field;
+    fields.push_back(r.field);
+    EXPECT_NE(r.routes, 0u) << r.field;
+    EXPECT_LE(r.min, r.max) << r.field;
+    if (r.methods == "all") continue;
+    std::size_t known = 0;
+    for (const MethodInfo& m : all_methods()) known += r.takes(m.name);
+    EXPECT_EQ(known, std::size_t(std::count(r.methods.begin(), r.methods.end(), ' ') + 1))
+        << r.field << ": " << r.methods;
+  }
+  EXPECT_TRUE(fit_option_rule("levels").takes("gmrf"));
+  EXPECT_FALSE(fit_option_rule("levels").takes("gm"));
+  EXPECT_FALSE(fit_option_rule("clusters").takes("lpc"));  // whole names only
+  EXPECT_EQ(fit_option_rule("refine_steps").max, kMaxRefineSteps);
+}
+
+// One check for every route: the options refused are named in the table's order, each once.
+TEST(FitOptions, OneCheckRefusesWhatCannotApply) {
+  const auto refused = [](std::vector<std::string_view> given, std::string_view method,
+                          FitRoute route, std::string_view source) {
+    return test::error_of([&] { check_fit_options(given, method, route, source); });
+  };
+  EXPECT_EQ(refused({"seed", "tile", "iterations"}, "gm", FitRoute::kResume, "c.ckpt"),
+            "--tile, --seed cannot apply with --resume: the fit goes on with the input, tile, "
+            "components, seed, precision and output its checkpoint 'c.ckpt' holds; leave them "
+            "out");
+  EXPECT_EQ(refused({"log"}, "lpca", FitRoute::kNew, ""),
+            "--log cannot apply to --method lpca: they belong to the Gaussian mixture's fit "
+            "(--method gm) only; leave it out");
+  EXPECT_NE(refused({"levels", "iterations"}, "gm", FitRoute::kBudget, "ratio")
+                .find("--levels cannot apply with --ratio: it chooses the method"),
+            std::string::npos);
+  EXPECT_NO_THROW(check_fit_options(std::vector<std::string_view>{"iterations", "epsilon", "log"},
+                                    "gm", FitRoute::kContinue, "m.btfgmm"));
+  FitOptions o;
+  o.method = "lpca";
+  o.clusters = 3;
+  o.epsilon = 0.1;
+  EXPECT_EQ(given_fields(o), (std::vector<std::string_view>{"method", "clusters", "epsilon"}));
 }
 
 }  // namespace

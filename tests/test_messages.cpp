@@ -244,5 +244,19 @@ TEST(Messages, ImagesAreWrittenInTheFormatTheirNamesSay) {
   fs::remove_all(dir);
 }
 
+// The library names options by their fields, marked; a front end spells each marked name its
+// own way and leaves every other character, other backquoted text included, as it was.
+TEST(Messages, OptionNamesAreSpelledByTheFrontEnd) {
+  EXPECT_EQ(option_name("refine_steps"), "`refine_steps`");
+  const std::string m = option_name("refine_steps") + " 0: give 1 to 9 (see `btfgmm sweep`, `" +
+                        ", " + option_name("tile") + ")`";
+  const auto flag = [](std::string_view f) { return "--<" + std::string(f) + ">"; };
+  EXPECT_EQ(spell_options(m, flag),
+            "--<refine_steps> 0: give 1 to 9 (see `btfgmm sweep`, `, "
+            "--<tile>)`");
+  EXPECT_EQ(spell_options("`` `A` `a", flag), "`` `A` `a");
+  EXPECT_EQ(spell_options("", flag), "");
+}
+
 }  // namespace
 }  // namespace btfgmm

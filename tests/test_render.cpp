@@ -26,6 +26,8 @@
 #include "btfgmm/model/predict.hpp"
 #include "btfgmm/render/font.hpp"
 #include "btfgmm/render/render.hpp"
+#include "btfgmm/render/scene.hpp"
+#include "test_util.hpp"
 
 namespace {
 
@@ -582,6 +584,41 @@ TEST(RenderCli, TileFitAutoRenderAndCompare) {
   r = run_cli("tile " + p("btf") + " --size 20x20");  // the whole image: judged across its wrap
   EXPECT_EQ(r.status, 0) << r.out;
   fs::remove_all(dir);
+}
+
+// The scene from its text: a point light as bright at the object's centre as a directional
+// light of its intensity, a look-at camera aimed at the centre unless told, and each field that
+// does not parse named.
+TEST(Scene, BuiltFromItsTextAsTheCommandTakesIt) {
+  SceneText t;
+  t.mesh = "plane";
+  t.point_light = "3,0,4";
+  t.intensity = 2.0;
+  t.eye = "0,0,5";
+  const Scene s = build_scene(t);
+  const Vec3 c = s.mesh.center();
+  const double d2 = (3 - c.x) * (3 - c.x) + c.y * c.y + (4 - c.z) * (4 - c.z);
+  EXPECT_EQ(s.light.kind, Light::Kind::kPoint);
+  EXPECT_DOUBLE_EQ(s.light.intensity, 2.0 * d2);
+  EXPECT_DOUBLE_EQ(s.camera.target.x, c.x);
+  EXPECT_DOUBLE_EQ(s.camera.eye.z, 5.0);
+  t.point_light.clear();
+  t.light = "120,-90";
+  EXPECT_EQ(build_scene(t).light.kind, Light::Kind::kDirectional);
+  t.light = "190,0";
+  EXPECT_NE(test::error_of([&] { build_scene(t); }).find("--light '190,0': theta 190"),
+            std::string::npos);
+  t.light = "45,30";
+  t.up = "0,1";
+  EXPECT_NE(test::error_of([&] { build_scene(t); }).find("--up '0,1'"), std::string::npos);
+  EXPECT_NE(test::error_of([&] {
+              render_settings("0x4", "40,40,40", 4, 0, 0.1, false);
+            }).find("--size '0x4'"),
+            std::string::npos);
+  const RenderSettings r = render_settings("64x48", "1,2,3", 2, 1, 0.5, true);
+  EXPECT_EQ(r.width, 64);
+  EXPECT_EQ(r.height, 48);
+  EXPECT_FLOAT_EQ(r.background[2], 3.0f);
 }
 
 }  // namespace

@@ -47,7 +47,7 @@ std::string error_of(const std::function<void()>& f) {
   try {
     f();
   } catch (const Error& e) {
-    return e.what();
+    return test::as_the_command_shows(e.what());
   }
   return "";
 }

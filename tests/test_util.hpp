@@ -15,6 +15,7 @@
 #include <string>
 
 #include "btfgmm/core/error.hpp"
+#include "btfgmm/core/text.hpp"
 #include "btfgmm/synth/generate.hpp"
 
 namespace btfgmm::test {
@@ -31,14 +32,25 @@ inline Btf generated_tile(const std::string& material, int size, std::uint64_t s
   return generate(g);
 }
 
-// The message of the btfgmm::Error `f` throws; a test failure if it throws nothing or
-// something else.
+// A library message as the command shows it: the options it names (core/text.hpp,
+// option_name) spelled as the command's flags (cli/cli_util.hpp, command_line_option).
+inline std::string as_the_command_shows(const std::string& message) {
+  return spell_options(message, [](std::string_view field) {
+    std::string flag = "--" + std::string(field);
+    for (char& c : flag)
+      if (c == '_') c = '-';
+    return flag;
+  });
+}
+
+// The message of the btfgmm::Error `f` throws, as the command shows it; a test failure if it
+// throws nothing or something else.
 template <class F>
 std::string error_of(F f) {
   try {
     f();
   } catch (const btfgmm::Error& e) {
-    return e.what();
+    return as_the_command_shows(e.what());
   } catch (const std::exception& e) {
     ADD_FAILURE() << "not a btfgmm::Error: " << e.what();
     return "";

@@ -57,6 +57,7 @@
 #include "btfgmm/render/rasterize.hpp"
 #include "btfgmm/render/render.hpp"
 #include "btfgmm/render/representation_evaluator.hpp"
+#include "btfgmm/render/scene.hpp"
 #include "btfgmm/render/shader.hpp"
 #include "btfgmm/render/viewer.hpp"
 // report: pictures, charts and the HTML report

@@ -9,6 +9,22 @@
 
 namespace btfgmm {
 
+std::pair<int, int> parse_size(const std::string& text, const std::string& option) {
+  const std::size_t x = text.find('x');
+  const std::string a = text.substr(0, x), b = x == std::string::npos ? a : text.substr(x + 1);
+  int w = 0, h = 0;
+  const auto ra = std::from_chars(a.data(), a.data() + a.size(), w);
+  const auto rb = std::from_chars(b.data(), b.data() + b.size(), h);
+  if (a.empty() || b.empty() || ra.ec != std::errc() || rb.ec != std::errc() ||
+      ra.ptr != a.data() + a.size() || rb.ptr != b.data() + b.size() || w < 1 || h < 1 ||
+      w > 65536 || h > 65536)
+    throw Error(Error::Kind::kArgument,
+                fmt::format("{} '{}' is not a size; give N or WxH pixels (1..65536), e.g. "
+                            "256 or 320x240",
+                            option, text));
+  return {w, h};
+}
+
 std::vector<double> parse_numbers(const std::string& text, const std::string& option,
                                   std::size_t count, const std::string& example) {
   std::vector<double> out;

@@ -101,4 +101,34 @@ double seconds_since(Clock::time_point start) {
   return std::chrono::duration<double>(Clock::now() - start).count();
 }
 
+std::string option_name(std::string_view field) {
+  return fmt::format("`{}`", field);
+}
+
+namespace {
+
+bool is_field_character(char c) {
+  return (c >= 'a' && c <= 'z') || (c >= '0' && c <= '9') || c == '_';
+}
+
+}  // namespace
+
+std::string spell_options(std::string_view message,
+                          const std::function<std::string(std::string_view field)>& spelling) {
+  std::string out;
+  std::size_t i = 0;
+  while (i < message.size()) {
+    std::size_t end = i + 1;
+    if (message[i] == '`')
+      while (end < message.size() && is_field_character(message[end])) ++end;
+    if (message[i] == '`' && end > i + 1 && end < message.size() && message[end] == '`') {
+      out += spelling(message.substr(i + 1, end - i - 1));
+      i = end + 1;
+    } else {
+      out += message[i++];
+    }
+  }
+  return out;
+}
+
 }  // namespace btfgmm

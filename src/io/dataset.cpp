@@ -82,7 +82,7 @@ Error not_a_btf(const fs::path& path) {
       : kind->kind == C::kZip     ? "a zip is read when its name ends in .zip: rename it"
       : kind->kind == C::kImage   ? "one image is not a BTF: give the folder that holds the images"
       : kind->kind == C::kCheckpoint
-          ? fmt::format("continue the fit it holds with 'btfgmm fit --resume {}'", path.string())
+          ? fmt::format("continue the fit it holds with 'btfgmm fit `resume` {}'", path.string())
           : "";
   if (fix.empty())
     return Error(Error::Kind::kArgument,
@@ -467,7 +467,7 @@ Btf BtfSource::load(const Tile& tile) const {
   limits::check_memory(double(images) * t.width * t.height * 12.0,
                        fmt::format("loading a {}x{} tile of the {} images of {}", t.width, t.height,
                                    images, info.path.string()),
-                       "give a smaller tile (btfgmm fit --tile X,Y,W,H)");
+                       "give a smaller tile (btfgmm fit `tile` X,Y,W,H)");
   Btf btf(info.lights, info.views, t.width, t.height, info.format);
   btf.set_origin(t);
   const std::size_t nv = info.views.size();

@@ -7,6 +7,7 @@
 #include <cmath>
 
 #include "btfgmm/core/error.hpp"
+#include "btfgmm/core/text.hpp"
 #include "btfgmm/methods/registry.hpp"
 #include "btfgmm/model/model_file.hpp"
 
@@ -21,11 +22,14 @@ struct NotedModel {
   std::vector<std::uint8_t> file;
 };
 
-NotedModel with_note(const Representation& m, std::uint64_t budget, const std::string& name) {
+NotedModel with_note(const Representation& m, std::uint64_t budget, const BudgetRequest& r,
+                     const std::string& name) {
   std::unique_ptr<Representation> copy = read_representation(representation_file_bytes(m), name);
   Provenance p = copy->provenance();
   std::erase_if(p.fit.settings, [](const auto& kv) { return kv.first == "chosen by"; });
-  p.fit.settings.push_back({"chosen by", budget_note(budget)});
+  std::function<std::string(std::string_view)> spelling = r.option_spelling;
+  if (!spelling) spelling = [](std::string_view field) { return std::string(field); };
+  p.fit.settings.push_back({"chosen by", spell_options(budget_note(budget), spelling)});
   copy->set_provenance(std::move(p));
   NotedModel n;
   n.file = representation_file_bytes(*copy);
@@ -49,7 +53,7 @@ std::optional<ModelComparison> fit_setting(const Btf& tile, const BudgetRequest&
   q.stop = r.stop;
   SweepOutcome o = run_sweep(tile, q);
   if (o.stopped)
-    throw Error(Error::Kind::kArgument, "fit --budget: interrupted before a model was chosen");
+    throw Error(Error::Kind::kArgument, "fit `budget`: interrupted before a model was chosen");
   out.skipped.insert(out.skipped.end(), o.skipped.begin(), o.skipped.end());
   if (o.models.empty()) return std::nullopt;
   return std::move(o.models[0]);
@@ -65,11 +69,12 @@ std::vector<const MethodInfo*> budget_methods(const BudgetRequest& r) {
 
 // No candidate fits: the smallest file possible (`smallest`, with the note of that budget,
 // whose digits count) and its method, or why none was fitted.
-Error nothing_fits(const BudgetChoice& c, std::uint64_t budget, const Representation* smallest) {
+Error nothing_fits(const BudgetChoice& c, const BudgetRequest& r, const Representation* smallest) {
+  const std::uint64_t budget = r.budget;
   if (c.candidates.empty() || !smallest)
     return Error(
         Error::Kind::kArgument,
-        fmt::format("fit --budget {}: no pixel-wise method could be fitted to this "
+        fmt::format("fit `budget` {}: no pixel-wise method could be fitted to this "
                     "tile{}; give a larger tile",
                     budget,
                     c.skipped.empty()
@@ -78,25 +83,25 @@ Error nothing_fits(const BudgetChoice& c, std::uint64_t budget, const Representa
                                       c.skipped[0].settings, c.skipped[0].message)));
   std::uint64_t least = budget;
   for (int k = 0; k < 4; ++k) {
-    const std::uint64_t bytes = with_note(*smallest, least, "the smallest").file.size();
+    const std::uint64_t bytes = with_note(*smallest, least, r, "the smallest").file.size();
     if (bytes == least) break;
     least = bytes;
   }
   return Error(Error::Kind::kArgument,
-               fmt::format("fit --budget {} bytes: no method's file fits; the smallest possible "
-                           "for this tile is {} bytes ({} {}); give --budget {} or more",
+               fmt::format("fit `budget` {} bytes: no method's file fits; the smallest possible "
+                           "for this tile is {} bytes ({} {}); give `budget` {} or more",
                            budget, least, smallest->method(), smallest->size_text(), least));
 }
 
 }  // namespace
 
 std::string budget_note(std::uint64_t budget) {
-  return fmt::format("--budget {} bytes: the best PSNR of the candidates that fit", budget);
+  return fmt::format("`budget` {} bytes: the best PSNR of the candidates that fit", budget);
 }
 
 BudgetChoice choose_within_budget(const Btf& tile, const BudgetRequest& r) {
   if (r.budget == 0)
-    throw Error(Error::Kind::kArgument, "fit --budget: the budget must be at least 1 byte");
+    throw Error(Error::Kind::kArgument, "fit `budget`: the budget must be at least 1 byte");
   const std::vector<const MethodInfo*> methods = budget_methods(r);
   const ModelFrame frame = ModelFrame::of(tile);
   BudgetChoice out;
@@ -111,7 +116,7 @@ BudgetChoice choose_within_budget(const Btf& tile, const BudgetRequest& r) {
         out.synthesis_methods.push_back(std::string(m->name));
         break;
       }
-      NotedModel n = with_note(*c->model, r.budget, c->name);
+      NotedModel n = with_note(*c->model, r.budget, r, c->name);
       out.candidates.push_back({std::string(m->name), settings_text(s), c->model->size_text(),
                                 n.file.size(), c->quality.psnr_db, n.file.size() <= r.budget});
       if (!smallest || n.file.size() < smallest_bytes) {
@@ -126,7 +131,7 @@ BudgetChoice choose_within_budget(const Btf& tile, const BudgetRequest& r) {
         any = true;
       }
     }
-  if (!any) throw nothing_fits(out, r.budget, smallest.get());
+  if (!any) throw nothing_fits(out, r, smallest.get());
   return out;
 }
 

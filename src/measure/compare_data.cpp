@@ -85,7 +85,7 @@ void check_model_frame(const Representation& model, const std::string& name, con
 void refuse_other_data(const DataCheck& check, bool force, std::string_view action) {
   if (check.match == DataMatch::kSame || check.match == DataMatch::kNotRecorded || force) return;
   throw Error(Error::Kind::kArgument,
-              fmt::format("{}; give the data the model was fitted to, or add --force to {} "
+              fmt::format("{}; give the data the model was fitted to, or add `force` to {} "
                           "anyway",
                           check.message, action));
 }

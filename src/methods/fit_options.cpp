@@ -4,9 +4,11 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <cassert>
 #include <utility>
 
 #include "btfgmm/core/error.hpp"
+#include "btfgmm/core/text.hpp"
 #include "btfgmm/methods/gaussian_mixture.hpp"
 #include "btfgmm/model/model_file.hpp"
 #include "btfgmm/model/provenance.hpp"
@@ -14,14 +16,125 @@
 namespace btfgmm {
 namespace {
 
+constexpr unsigned kAnyRoute =
+    FitRoute::kNew | FitRoute::kResume | FitRoute::kContinue | FitRoute::kBudget;
+constexpr unsigned kMixtureRoutes = FitRoute::kNew | FitRoute::kResume | FitRoute::kContinue;
+constexpr double kMaxSize = 100000;
+
+// Which method takes which option of the fit, and its range (fit_options.hpp). Each method
+// checks the sizes it takes against the tile itself (its message names the range the tile
+// allows), and refuses the other methods' sizes; check_fit_options refuses what cannot apply
+// with a request and the mixture's options given to another method.
+constexpr FitOptionRule kRules[] = {
+    {.field = "output",
+     .methods = "all",
+     .routes = FitRoute::kNew | FitRoute::kContinue | FitRoute::kBudget},
+    {.field = "method", .methods = "all", .routes = unsigned(FitRoute::kNew)},
+    {.field = "tile", .methods = "all", .routes = FitRoute::kNew | FitRoute::kBudget},
+    {.field = "components",
+     .methods = "gm pca-btf pca-rf lpca",
+     .routes = unsigned(FitRoute::kNew),
+     .min = 1,
+     .max = kMaxSize},
+    {.field = "clusters",
+     .methods = "lpca 3d-car 2d-car gmrf",
+     .routes = unsigned(FitRoute::kNew),
+     .min = 1,
+     .max = kMaxSize},
+    {.field = "degree",
+     .methods = "plm-rf",
+     .routes = unsigned(FitRoute::kNew),
+     .min = 0,
+     .max = 64},
+    {.field = "seed", .methods = "all", .routes = FitRoute::kNew | FitRoute::kBudget},
+    {.field = "precision", .methods = "all", .routes = unsigned(FitRoute::kNew)},
+    {.field = "overwrite",
+     .methods = "all",
+     .routes = FitRoute::kNew | FitRoute::kContinue | FitRoute::kBudget},
+    {.field = "objective", .methods = "gm", .routes = FitRoute::kNew | FitRoute::kResume},
+    {.field = "refine_steps",
+     .methods = "gm",
+     .routes = kMixtureRoutes,
+     .min = 1,
+     .max = kMaxRefineSteps},
+    {.field = "epsilon", .methods = "gm", .routes = kMixtureRoutes, .min = 0, .max = 1},
+    {.field = "iterations",
+     .methods = "gm lpca plm-rf",
+     .routes = kAnyRoute,
+     .min = 1,
+     .max = kMaxSize},
+    {.field = "levels",
+     .methods = "3d-car 2d-car gmrf",
+     .routes = unsigned(FitRoute::kNew),
+     .min = 1,
+     .max = 16},
+    {.field = "checkpoint", .methods = "gm", .routes = kMixtureRoutes},
+    {.field = "checkpoint_every",
+     .methods = "gm",
+     .routes = kMixtureRoutes,
+     .min = 1,
+     .max = kMaxSize},
+    {.field = "resume", .methods = "gm", .routes = unsigned(FitRoute::kResume)},
+    {.field = "continue", .methods = "gm", .routes = unsigned(FitRoute::kContinue)},
+    {.field = "log", .methods = "gm", .routes = kMixtureRoutes},
+    {.field = "threads", .methods = "all", .routes = kAnyRoute, .min = 0, .max = 1024},
+};
+
+// "`a`", "`a`, `b`", ... of the fields, and "it" or "them".
+std::string named_fields(std::span<const std::string_view> fields) {
+  std::string named;
+  for (const std::string_view f : fields) named += (named.empty() ? "" : ", ") + option_name(f);
+  return named;
+}
+const char* it_or_them(std::span<const std::string_view> fields) {
+  return fields.size() == 1 ? "it" : "them";
+}
+
+// The fields of `given` whose row refuses them: in the table's order.
+template <typename Refused>
+std::vector<std::string_view> refused_fields(std::span<const std::string_view> given,
+                                             Refused refused) {
+  std::vector<std::string_view> out;
+  for (const FitOptionRule& r : kRules)
+    if (std::find(given.begin(), given.end(), r.field) != given.end() && refused(r))
+      out.push_back(r.field);
+  return out;
+}
+
+// Why options cannot apply with `route`.
+std::string route_reason(FitRoute route, std::string_view source) {
+  switch (route) {
+    case FitRoute::kResume:
+      return fmt::format(
+          "with {}: the fit goes on with the input, tile, components, seed, "
+          "precision and output its checkpoint '{}' holds",
+          option_name("resume"), source);
+    case FitRoute::kContinue:
+      return fmt::format(
+          "with {}: the fit goes on with the tile, components, seed, precision "
+          "and objective of the model '{}'",
+          option_name("continue"), source);
+    case FitRoute::kBudget:
+      return fmt::format(
+          "with {}: it chooses the method and size itself (each method's ladder "
+          "of sizes, stored as sweep stores them)",
+          option_name(source));
+    case FitRoute::kNew:
+      break;
+  }
+  return {};
+}
+
+// The mixture's file: compact unless asked (its own encodings; the registry's fit_encoding is
+// the other methods').
 Precision mixture_precision(const std::string& text) {
   if (text.empty() || text == "compact" || text == "q8") return Precision::kCompact;
   if (text == "f32") return Precision::kF32;
   if (text == "f16") return Precision::kF16;
   throw Error(Error::Kind::kArgument,
-              fmt::format("--precision '{}': the Gaussian mixture stores compact (the default: "
+              fmt::format("{} '{}': the Gaussian mixture stores compact (the default: "
                           "quantised, zstd), f32 or f16",
-                          text));
+                          option_name("precision"), text));
 }
 
 // The mixture, as run_fit fits it but for the file.
@@ -46,16 +159,74 @@ std::unique_ptr<Representation> fit_mixture(const FitOptions& o, const std::stri
 
 }  // namespace
 
-void set_refine_steps(FitConfig& config, int steps) {
-  if (steps < 0 || steps > kMaxRefineSteps)
+bool FitOptionRule::takes(std::string_view method) const {
+  if (methods == "all") return true;
+  for (std::size_t at = 0; at < methods.size();) {
+    const std::size_t end = std::min(methods.find(' ', at), methods.size());
+    if (methods.substr(at, end - at) == method) return true;
+    at = end + 1;
+  }
+  return false;
+}
+
+std::span<const FitOptionRule> fit_option_rules() {
+  return kRules;
+}
+
+const FitOptionRule& fit_option_rule(std::string_view field) {
+  for (const FitOptionRule& r : kRules)
+    if (r.field == field) return r;
+  assert(false && "no such option of the fit");
+  return kRules[0];
+}
+
+std::vector<std::string_view> given_fields(const FitOptions& o) {
+  const std::pair<std::string_view, bool> set[] = {
+      {"method", o.method != kMixtureMethod}, {"components", o.components != 0},
+      {"clusters", o.clusters != 0},          {"degree", o.degree != 0},
+      {"iterations", o.iterations != 0},      {"levels", o.levels != 0},
+      {"epsilon", o.epsilon.has_value()},     {"precision", !o.precision.empty()},
+      {"objective", !o.objective.empty()},    {"refine_steps", o.refine_steps != 0},
+  };
+  std::vector<std::string_view> out;
+  for (const auto& [field, given] : set)
+    if (given) out.push_back(field);
+  return out;
+}
+
+void check_fit_options(std::span<const std::string_view> given, std::string_view method,
+                       FitRoute route, std::string_view source) {
+  const std::vector<std::string_view> mixture_only =
+      route == FitRoute::kBudget ? std::vector<std::string_view>()
+                                 : refused_fields(given, [method](const FitOptionRule& r) {
+                                     return r.methods == kMixtureMethod && !r.takes(method);
+                                   });
+  if (!mixture_only.empty())
     throw Error(Error::Kind::kArgument,
-                fmt::format("--refine-steps {}: give 1 to {} Adam steps, or leave it out for as "
-                            "many as the fit affords",
-                            steps, kMaxRefineSteps));
+                fmt::format("{} cannot apply to {} {}: they belong to the Gaussian mixture's fit "
+                            "({} gm) only; leave {} out",
+                            named_fields(mixture_only), option_name("method"), method,
+                            option_name("method"), it_or_them(mixture_only)));
+  const std::vector<std::string_view> off_route = refused_fields(
+      given, [route](const FitOptionRule& r) { return (r.routes & unsigned(route)) == 0; });
+  if (!off_route.empty())
+    throw Error(Error::Kind::kArgument,
+                fmt::format("{} cannot apply {}; leave {} out", named_fields(off_route),
+                            route_reason(route, source), it_or_them(off_route)));
+}
+
+void set_refine_steps(FitConfig& config, int steps) {
+  const FitOptionRule& rule = fit_option_rule("refine_steps");
+  if (steps < 0 || steps > rule.max)
+    throw Error(Error::Kind::kArgument,
+                fmt::format("{} {}: give {} to {} Adam steps, or leave it out for as many as the "
+                            "fit affords",
+                            option_name(rule.field), steps, rule.min, rule.max));
   if (steps > 0 && config.objective != FitObjective::kPrediction)
     throw Error(Error::Kind::kArgument,
-                "--refine-steps applies to the objective prediction only (the paper's EM, "
-                "--objective likelihood, refines nothing); leave one of them out");
+                fmt::format("{} applies to the objective prediction only (the paper's EM, {} "
+                            "likelihood, refines nothing); leave one of them out",
+                            option_name(rule.field), option_name("objective")));
   config.refinement_steps = steps;
 }
 
@@ -63,42 +234,37 @@ FitRequest mixture_fit_request(const FitOptions& o, const std::string& input,
                                const std::string& output) {
   if (o.clusters != 0 || o.degree != 0)
     throw Error(Error::Kind::kArgument,
-                fmt::format("{} applies to {} only, not to the Gaussian mixture; leave it out",
-                            o.clusters ? "--clusters" : "--degree",
-                            o.clusters ? "--method lpca" : "--method plm-rf"));
+                fmt::format("{} applies to {} {} only, not to the Gaussian mixture; leave it out",
+                            option_name(o.clusters ? "clusters" : "degree"), option_name("method"),
+                            o.clusters ? "lpca" : "plm-rf"));
   if (o.levels != 0)
     throw Error(Error::Kind::kArgument,
-                "--levels applies to the pyramid of --method 3d-car, 2d-car or gmrf only, not "
-                "to the Gaussian mixture; leave it out");
+                fmt::format("{} applies to the pyramid of {} 3d-car, 2d-car or gmrf only, not "
+                            "to the Gaussian mixture; leave it out",
+                            option_name("levels"), option_name("method")));
+  const std::vector<std::string_view> given = given_fields(o);
+  check_fit_options(given, kMixtureMethod, FitRoute::kNew);
   FitRequest r;
   r.input = input;
   r.output = output;
-  r.config.components = o.components ? o.components : 600;
-  r.config.seed = o.seed;
-  r.config.em.max_iterations = o.iterations ? o.iterations : 40;
+  r.config = mixture_config(o.components, o.iterations, o.seed, o.threads);
   r.config.em.epsilon = o.epsilon.value_or(0.0);
-  r.config.em.threads = o.threads;
   r.config.objective =
-      parse_objective(o.objective.empty() ? "prediction" : o.objective, "--objective");
+      parse_objective(o.objective.empty() ? "prediction" : o.objective, option_name("objective"));
   set_refine_steps(r.config, o.refine_steps);
   r.precision = mixture_precision(o.precision);
   return r;
 }
 
 MethodSettings method_settings(const FitOptions& o, const MethodInfo& method) {
-  if (o.epsilon || !o.objective.empty() || o.refine_steps != 0)
+  const std::vector<std::string_view> given = given_fields(o);
+  check_fit_options(given, method.name, FitRoute::kNew);
+  if (o.levels != 0 && !fit_option_rule("levels").takes(method.name))
     throw Error(Error::Kind::kArgument,
-                fmt::format("{} cannot apply to --method {}: it belongs to the Gaussian "
-                            "mixture's fit (--method gm) only; leave it out",
-                            o.epsilon             ? "--epsilon"
-                            : o.refine_steps != 0 ? "--refine-steps"
-                                                  : "--objective",
-                            method.name));
-  if (o.levels != 0 && !method.pyramid)
-    throw Error(Error::Kind::kArgument,
-                fmt::format("--levels {} cannot apply to --method {}: it has no pyramid (--levels "
-                            "applies to 3d-car, 2d-car and gmrf); leave it out",
-                            o.levels, method.name));
+                fmt::format("{} {} cannot apply to {} {}: it has no pyramid ({} applies to "
+                            "3d-car, 2d-car and gmrf); leave it out",
+                            option_name("levels"), o.levels, option_name("method"), method.name,
+                            option_name("levels")));
   MethodSettings s;
   s.components = o.components;
   s.levels = o.levels;
@@ -108,8 +274,8 @@ MethodSettings method_settings(const FitOptions& o, const MethodInfo& method) {
   s.seed = o.seed;
   s.threads = o.threads;
   // 8 bits a factor by default: at most 0.1 dB below f32 on generated tiles (docs/METHODS.md).
-  s.encoding =
-      o.precision.empty() ? method.fit_encoding : parse_factor_encoding(o.precision, "--precision");
+  s.encoding = o.precision.empty() ? method.fit_encoding
+                                   : parse_factor_encoding(o.precision, option_name("precision"));
   return s;
 }
 
@@ -123,9 +289,13 @@ std::unique_ptr<Representation> fit_representation(const FitOptions& o, const st
   s.stop = progress.stop;
   if (!source) source = std::make_shared<const BtfSource>(BtfSource::open(input));
   const BtfInfo& info = source->info();
-  const Btf btf = source->load(tile.empty() ? Tile{0, 0, info.width, info.height} : tile);
+  const Btf btf = source->load(
+      tile.empty() ? Tile{.x = 0, .y = 0, .width = info.width, .height = info.height} : tile);
   if (progress.started)
-    progress.started(FitTile{btf.lights(), btf.views(), btf.origin(), btf.format()});
+    progress.started(FitTile{.lights = btf.lights(),
+                             .views = btf.views(),
+                             .origin = btf.origin(),
+                             .format = btf.format()});
   return fit_and_record(method, btf, s, fingerprint_of(btf, {input, info.width, info.height}));
 }
 

@@ -4,6 +4,7 @@
 #include <fmt/format.h>
 
 #include "btfgmm/core/error.hpp"
+#include "btfgmm/core/text.hpp"
 #include "btfgmm/model/decode.hpp"
 #include "btfgmm/model/fit.hpp"
 #include "btfgmm/model/model_file.hpp"
@@ -96,14 +97,10 @@ FactorEncoding GaussianMixture::encoding() const {
 std::unique_ptr<Representation> fit_gaussian_mixture(const Btf& tile, const MethodSettings& s) {
   if (s.clusters != 0)
     throw Error(Error::Kind::kArgument,
-                "--clusters applies to lpca only; the Gaussian mixture's size is --components");
-  FitConfig config;
-  config.components = s.components ? s.components : 600;
-  config.seed = s.seed;
-  config.em.max_iterations = s.iterations ? s.iterations : 40;
-  config.em.threads = s.threads;
+                fmt::format("{} applies to lpca only; the Gaussian mixture's size is {}",
+                            option_name("clusters"), option_name("components")));
+  FitConfig config = mixture_config(s.components, s.iterations, s.seed, s.threads);
   config.em.stop = s.stop;
-  config.objective = FitObjective::kPrediction;  // the best default (docs/ALGORITHM.md)
   EmCallback progress;
   if (s.progress)
     progress = [&s](const EmProgress& p) {

@@ -36,7 +36,7 @@ std::size_t clusters_setting(const MethodSettings& s, const ModelFrame& f) {
   if (s.clusters == 0) return std::min<std::size_t>(8, max_clusters(f.pixels()));
   if (s.clusters > max_clusters(f.pixels()))
     throw Error(Error::Kind::kArgument,
-                fmt::format("--clusters {}: lpca takes 1..{} for {}", s.clusters,
+                fmt::format("`clusters` {}: lpca takes 1..{} for {}", s.clusters,
                             max_clusters(f.pixels()), tile_text(f)));
   return s.clusters;
 }
@@ -44,7 +44,7 @@ std::size_t clusters_setting(const MethodSettings& s, const ModelFrame& f) {
 int rounds_setting(const MethodSettings& s) {
   if (s.iterations < 0)
     throw Error(Error::Kind::kArgument,
-                fmt::format("--iterations {}: lpca takes 1 or more re-assignment rounds (0: the "
+                fmt::format("`iterations` {}: lpca takes 1 or more re-assignment rounds (0: the "
                             "default, 20)",
                             s.iterations));
   return s.iterations > 0 ? s.iterations : 20;

@@ -21,7 +21,7 @@ std::size_t components_setting(const MethodSettings& s, std::string_view method,
         fmt::format("{} needs more data than {}: it cannot take one component", method, what));
   if (s.components == 0) return std::min(fallback, max);
   if (s.components > max)
-    throw Error(Error::Kind::kArgument, fmt::format("--components {}: {} takes 1..{} for {}",
+    throw Error(Error::Kind::kArgument, fmt::format("`components` {}: {} takes 1..{} for {}",
                                                     s.components, method, max, what));
   return s.components;
 }
@@ -29,8 +29,8 @@ std::size_t components_setting(const MethodSettings& s, std::string_view method,
 void refuse_clusters(const MethodSettings& s, std::string_view method) {
   if (s.clusters != 0)
     throw Error(Error::Kind::kArgument,
-                fmt::format("--clusters {}: {} has no clusters (--clusters applies to lpca); "
-                            "its size is --components",
+                fmt::format("`clusters` {}: {} has no clusters (`clusters` applies to lpca); "
+                            "its size is `components`",
                             s.clusters, method));
 }
 

@@ -17,7 +17,7 @@
 namespace btfgmm::detail {
 
 // s.components, or `fallback` (clamped to `max`) when 0; Error(kArgument) outside 1..max:
-// "--components 900: pca-btf takes 1..255 for <what>" (what: "this tile of 256 images").
+// "`components` 900: pca-btf takes 1..255 for <what>" (what: "this tile of 256 images").
 std::size_t components_setting(const MethodSettings& s, std::string_view method,
                                std::size_t fallback, std::size_t max, const std::string& what);
 // Error(kArgument) for --clusters given to a method that has none.

@@ -28,20 +28,20 @@ struct PlmOptions {
 PlmOptions check_settings(const Btf& tile, const MethodSettings& s) {
   const auto not_here = [](std::string_view option, std::size_t value) {
     throw Error(Error::Kind::kArgument,
-                fmt::format("{} {}: plm-rf's size is set by --degree (the degree l of its "
+                fmt::format("{} {}: plm-rf's size is set by `degree` (the degree l of its "
                             "per-image polynomial, 1..{}); leave {} out",
                             option, value, PlmRf::kMaxDegree, option));
   };
-  if (s.components != 0) not_here("--components", s.components);
-  if (s.clusters != 0) not_here("--clusters", s.clusters);
+  if (s.components != 0) not_here("`components`", s.components);
+  if (s.clusters != 0) not_here("`clusters`", s.clusters);
   if (s.degree > PlmRf::kMaxDegree)
     throw Error(Error::Kind::kArgument,
-                fmt::format("--degree {}: plm-rf takes 1..{} (the degree l of the polynomial "
+                fmt::format("`degree` {}: plm-rf takes 1..{} (the degree l of the polynomial "
                             "per image; {} when not given)",
                             s.degree, PlmRf::kMaxDegree, PlmRf::kDefaultDegree));
   if (s.iterations < 0 || s.iterations > kMaxIterations)
     throw Error(Error::Kind::kArgument,
-                fmt::format("--iterations {}: plm-rf takes 1..{} Levenberg-Marquardt steps per "
+                fmt::format("`iterations` {}: plm-rf takes 1..{} Levenberg-Marquardt steps per "
                             "lobe ({} when not given)",
                             s.iterations, kMaxIterations, kDefaultIterations));
   if (tile.lights().size() < PlmRf::kLobeParameters)

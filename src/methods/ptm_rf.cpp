@@ -120,10 +120,10 @@ void check_settings(const MethodSettings& s) {
                             "channel) and fits in closed form; leave {} out",
                             option, value, option));
   };
-  if (s.components != 0) fixed("--components", s.components);
-  if (s.clusters != 0) fixed("--clusters", s.clusters);
-  if (s.degree != 0) fixed("--degree", s.degree);
-  if (s.iterations != 0) fixed("--iterations", s.iterations);
+  if (s.components != 0) fixed("`components`", s.components);
+  if (s.clusters != 0) fixed("`clusters`", s.clusters);
+  if (s.degree != 0) fixed("`degree`", s.degree);
+  if (s.iterations != 0) fixed("`iterations`", s.iterations);
 }
 
 // The least-squares fit's operator (Malzbender et al. 2001, Sec. 3.1): the pseudo-inverse

@@ -30,28 +30,28 @@ std::string_view method_name(TextureKind kind) {
 void check_settings(TextureKind kind, const Btf& tile, const MethodSettings& s) {
   const auto refuse = [&](std::string_view option, auto value) {
     throw Error(Error::Kind::kArgument,
-                fmt::format("{} {}: {} takes its size from --clusters (subspaces) alone and "
+                fmt::format("{} {}: {} takes its size from `clusters` (subspaces) alone and "
                             "chooses its neighbourhood itself; leave {} out",
                             option, value, method_name(kind), option));
   };
-  if (s.components != 0) refuse("--components", s.components);
-  if (s.degree != 0) refuse("--degree", s.degree);
-  if (s.iterations != 0) refuse("--iterations", s.iterations);
+  if (s.components != 0) refuse("`components`", s.components);
+  if (s.degree != 0) refuse("`degree`", s.degree);
+  if (s.iterations != 0) refuse("`iterations`", s.iterations);
   if (s.clusters > 255)
-    throw Error(Error::Kind::kArgument, fmt::format("--clusters {}: {} takes 1 to 255 subspaces",
+    throw Error(Error::Kind::kArgument, fmt::format("`clusters` {}: {} takes 1 to 255 subspaces",
                                                     s.clusters, method_name(kind)));
   if (tile.width() < kMinTileSide || tile.height() < kMinTileSide)
     throw Error(
         Error::Kind::kArgument,
         fmt::format("{} needs a tile of at least {} x {} pixels to learn a texture; "
-                    "this one is {} x {}: give a larger --tile",
+                    "this one is {} x {}: give a larger `tile`",
                     method_name(kind), kMinTileSide, kMinTileSide, tile.width(), tile.height()));
   const int most = detail::max_levels(tile.width(), tile.height(), kMinTileSide);
   if (s.levels < 0 || s.levels > most)
     throw Error(Error::Kind::kArgument,
-                fmt::format("--levels {}: a {} x {} tile holds at most {} pyramid level{} (the "
-                            "coarsest at least {} x {} pixels); give --levels 1 to {}, or a "
-                            "larger --tile",
+                fmt::format("`levels` {}: a {} x {} tile holds at most {} pyramid level{} (the "
+                            "coarsest at least {} x {} pixels); give `levels` 1 to {}, or a "
+                            "larger `tile`",
                             s.levels, tile.width(), tile.height(), most, most == 1 ? "" : "s",
                             kMinTileSide, kMinTileSide, most));
 }

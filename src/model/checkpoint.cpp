@@ -21,7 +21,7 @@ constexpr std::uint8_t kMagic[8] = {0x89, 'B', 'T', 'F', 'C', 'K', 'P', '\n'};
 // provenance); 1 had neither.
 constexpr std::uint32_t kVersion = 2;
 constexpr const char* kWhat = "checkpoint";
-constexpr const char* kFix = "start the fit again without --resume";
+constexpr const char* kFix = "start the fit again without `resume`";
 
 void fnv(std::uint64_t& h, const void* data, std::size_t n) {
   const auto* p = static_cast<const std::uint8_t*>(data);
@@ -94,7 +94,7 @@ FitCheckpoint load_checkpoint(const std::filesystem::path& path) {
   if (bytes.size() < 16 || std::memcmp(bytes.data(), kMagic, 8) != 0)
     throw Error(Error::Kind::kFormat,
                 fmt::format("'{}' is not a btfgmm checkpoint (written by 'btfgmm fit "
-                            "--checkpoint'); {}",
+                            "`checkpoint`'); {}",
                             name, kFix));
   std::uint32_t stored;
   std::memcpy(&stored, bytes.data() + bytes.size() - 4, 4);

@@ -155,7 +155,7 @@ void check_decode(const BtfModel& model, const DirectionSet& lights, const Direc
                                    "M = {}",
                                    lights.size() * views.size(), width, height, model.width,
                                    model.height, model.mixture.size()),
-                       "decode a smaller size (--size) or fewer directions (--light, --view)");
+                       "decode a smaller size (`size`) or fewer directions (`light`, `view`)");
 }
 
 // Eq. (9)'s exponent on the grid splits into parts that depend on one input each:

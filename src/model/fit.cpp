@@ -133,7 +133,7 @@ void check_resume(const FitResume& resume, const FitCheckpoint& now) {
   const int done = was.state.result.iterations;
   if (now.max_iterations < done)
     throw Error(Error::Kind::kArgument,
-                fmt::format("--iterations {}: {} '{}' has already run {} iterations; give at "
+                fmt::format("`iterations` {}: {} '{}' has already run {} iterations; give at "
                             "least {} (the total, not the iterations to add)",
                             now.max_iterations, what, resume.path, done, done));
   struct Setting {
@@ -259,6 +259,16 @@ BtfModel fit_samples(const SampleSet& samples, const FitTile& tile, const FitCon
 
 }  // namespace
 
+FitConfig mixture_config(std::size_t components, int iterations, std::uint64_t seed, int threads) {
+  FitConfig config;
+  if (components != 0) config.components = components;
+  if (iterations != 0) config.em.max_iterations = iterations;
+  config.seed = seed;
+  config.em.threads = threads;
+  config.objective = FitObjective::kPrediction;
+  return config;
+}
+
 BtfModel fit_model(const Btf& btf, const FitConfig& config, const EmCallback& progress,
                    const FitState* resume, const EmStateCallback& after_iteration,
                    FitState* state) {
@@ -303,14 +313,14 @@ FitRequest continue_request(const fs::path& path, const std::string& input, int 
   if (c.method != kMixtureMethod)
     throw Error(Error::Kind::kArgument,
                 fmt::format("'{}' holds a '{}' model; only a Gaussian mixture's EM goes on "
-                            "(--continue): fit that method again with the settings you want",
+                            "(`continue`): fit that method again with the settings you want",
                             name, c.method));
   BtfModel m = read_mixture_payload(c.payload, c.flags, name);
   const Provenance& p = c.provenance;
   if (!p.recorded || p.fit.iterations.size() != m.settings.iterations)
     throw Error(Error::Kind::kArgument,
                 fmt::format("'{}' records no provenance (written by an older btfgmm), so its "
-                            "fit cannot go on; fit again with --iterations {}",
+                            "fit cannot go on; fit again with `iterations` {}",
                             name, iterations));
   FitRequest r;
   r.input = input.empty() ? p.data.source.name : input;
@@ -350,8 +360,8 @@ FitOutcome fit_in_memory(const FitRequest& request, const FitObserver& observer)
   if (request.processes && request.processes->size() > 1 &&
       request.config.objective == FitObjective::kPrediction)
     throw Error(Error::Kind::kArgument,
-                "--objective prediction (the default) is not yet split over MPI processes; give "
-                "--objective likelihood (the paper's EM) to fit over several, or run one process");
+                "`objective` prediction (the default) is not yet split over MPI processes; give "
+                "`objective` likelihood (the paper's EM) to fit over several, or run one process");
   const LoadedTile loaded = load_tile(request);
   const auto t0 = Clock::now();
   const FitTile& tile = loaded.tile;

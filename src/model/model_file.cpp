@@ -131,7 +131,7 @@ void check_magic(std::span<const std::uint8_t> bytes, const std::string& name) {
       : kind->kind == C::kCheckpoint
           ? fmt::format(
                 "it holds a fit that has not finished: continue it with 'btfgmm fit "
-                "--resume {}', which writes the model",
+                "`resume` {}', which writes the model",
                 name)
           : "give a .btfgmm file written by 'btfgmm fit'";
   throw Error(Error::Kind::kFormat,

@@ -100,7 +100,7 @@ void check_sample_memory(const SampleSet& s, double bytes) {
   limits::check_memory(double(s.held_size()) * bytes,
                        fmt::format("fitting a {}x{} tile of {} lights x {} views", s.width,
                                    s.height, s.lights, s.views),
-                       "fit a smaller tile (--tile)");
+                       "fit a smaller tile (`tile`)");
 }
 
 // 8-bit levels: whole numbers 0 .. 255 (the Btf's kLdr8 data).
@@ -338,7 +338,7 @@ ProductMixture initial_mixture(const SampleSet& s, std::size_t components, std::
                        fmt::format("fitting M = {} components to a {}x{} tile of {} lights x {} "
                                    "views",
                                    components, s.width, s.height, s.lights, s.views),
-                       "give fewer components (--components) or a smaller tile (--tile)");
+                       "give fewer components (`components`) or a smaller tile (`tile`)");
   // The samples the initialisation reads: every stride-th (at most ~1e6) for the variances,
   // then M distinct random ones for the means; their colours from the processes that hold
   // them.

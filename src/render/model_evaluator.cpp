@@ -144,7 +144,7 @@ void check_model(const BtfModel& model, double tolerance) {
                 "BRDF of the wrong size); load it with load_model()");
   if (!(tolerance >= 0.0) || !std::isfinite(tolerance))
     throw Error(Error::Kind::kArgument,
-                fmt::format("--tolerance {} must be a finite number of levels >= 0", tolerance));
+                fmt::format("`tolerance` {} must be a finite number of levels >= 0", tolerance));
 }
 
 // The components' parameters in the kernel's form: Eq. (9)'s base (log_weight_base) and the

@@ -59,7 +59,7 @@ void check_arguments(const Mesh& mesh, const RenderSettings& settings, int tile_
                 fmt::format("render: the tile {}x{} is empty", tile_width, tile_height));
   if (!(settings.repeat > 0.0) || !std::isfinite(settings.repeat))
     throw Error(Error::Kind::kArgument,
-                fmt::format("--repeat {} must be a positive number of tiles", settings.repeat));
+                fmt::format("`repeat` {} must be a positive number of tiles", settings.repeat));
   if (mesh.triangles.empty() || mesh.position.empty())
     throw Error(Error::Kind::kArgument, "render: the mesh has no triangles");
 }

@@ -65,7 +65,7 @@ std::string methods_figure(const std::filesystem::path& folder,
   if (models.size() < 2 || models[0].pairs.empty()) return "";
   std::vector<const ModelComparison*> same;  // the models of the first model's tile
   for (const ModelComparison& c : models)
-    if (same_tile(c.tile, models[0].tile)) same.push_back(&c);
+    if (c.tile == models[0].tile) same.push_back(&c);
   const double target = median_ratio(same);
   const PicturedPair& first = models[0].pairs[0];  // frontal light and view
   const ModelFrame& m = models[0].model->frame();

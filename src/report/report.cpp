@@ -33,7 +33,6 @@ using report::angles;
 using report::db;
 using report::ratio;
 using report::rmse_text;
-using report::same_tile;
 using report::save_png;
 using report::tile_text;
 using report::time_text;
@@ -165,7 +164,7 @@ std::string mean_brdf_rows(std::span<const ModelComparison> models) {
   std::vector<Tile> tiles_with_baseline;
   for (const ModelComparison& c : models) {
     const bool seen = std::any_of(tiles_with_baseline.begin(), tiles_with_baseline.end(),
-                                  [&](const Tile& t) { return same_tile(t, c.tile); });
+                                  [&](const Tile& t) { return t == c.tile; });
     if (seen) continue;
     tiles_with_baseline.push_back(c.tile);
     const BtfQuality& b = c.mean_brdf_only;
@@ -331,7 +330,7 @@ std::string model_section(const fs::path& folder, std::span<const ModelCompariso
   h += fmt::format("</div><div class=\"maps\" style=\"width:{}px\">",
                    std::max(300, 46 + int(m.views.size()) * cell + 8 + 48 + 8));
   h += psnr_map(folder, k, c, cell, outline, map_range);
-  if (k == 0 || !same_tile(c.tile, models[0].tile))
+  if (k == 0 || c.tile != models[0].tile)
     h += mean_brdf_picture(folder, k, c, cell,
                            models[0].model->frame().format == SampleFormat::kHdr);
   h += "</div></div></section>\n";

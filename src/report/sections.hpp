@@ -48,10 +48,6 @@ inline std::string tile_text(const Tile& t) {
   return fmt::format("{}&times;{} at ({}, {})", t.width, t.height, t.x, t.y);
 }
 
-inline bool same_tile(const Tile& a, const Tile& b) {
-  return a.x == b.x && a.y == b.y && a.width == b.width && a.height == b.height;
-}
-
 // ---- files ---------------------------------------------------------------------------------
 
 inline void save_png(const std::filesystem::path& folder, const std::string& name,

@@ -157,7 +157,7 @@ std::string side_by_side(const fs::path& folder, std::span<const ModelComparison
   std::vector<const ModelComparison*> ms;  // the models of the first model's tile
   std::size_t of_tile = 0;
   for (const ModelComparison& c : models)
-    if (same_tile(c.tile, models[0].tile) && ++of_tile <= kMostModels) ms.push_back(&c);
+    if (c.tile == models[0].tile && ++of_tile <= kMostModels) ms.push_back(&c);
   if (ms.size() < 2) return "";
   if (data && (data->width() != models[0].tile.width || data->height() != models[0].tile.height))
     data = nullptr;

@@ -27,6 +27,7 @@ std::string to_string(SampleFormat f);
 struct Tile {
   int x = 0, y = 0, width = 0, height = 0;
   bool empty() const { return width <= 0 || height <= 0; }
+  bool operator==(const Tile&) const = default;
 };
 
 class Btf {

@@ -4,11 +4,16 @@
 
 #include <cstddef>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "btfgmm/core/directions.hpp"
 
 namespace btfgmm {
+
+// A size in pixels: "N" (N x N) or "WxH", each 1..65536. Throws Error(kArgument) naming
+// `option`.
+std::pair<int, int> parse_size(const std::string& text, const std::string& option);
 
 // Exactly `count` finite numbers separated by commas. Throws Error(kArgument) naming `option`
 // and the value, with `example` showing the form (e.g. "30,45 (theta,phi in degrees)").

@@ -3,6 +3,7 @@
 #pragma once
 
 #include <chrono>
+#include <functional>
 #include <span>
 #include <string>
 #include <string_view>
@@ -30,6 +31,15 @@ std::string nearest_name(std::string_view given, std::span<const std::string_vie
 // " (did you mean 'A'?)", " (did you mean 'A' or 'B'?)" for nearest_names, or empty: the
 // suffix of an error message.
 std::string did_you_mean(std::string_view given, std::span<const std::string_view> names);
+
+// Options in messages. The library names an option by its field name ("refine_steps", as
+// FitOptions and the other settings spell it), marked: option_name("refine_steps") is
+// "`refine_steps`". Each front end writes the marked names in its own spelling before it shows
+// a message: spell_options(message, spelling) replaces each by spelling(field) (the command:
+// "--refine-steps"), and leaves any other text as it is.
+std::string option_name(std::string_view field);
+std::string spell_options(std::string_view message,
+                          const std::function<std::string(std::string_view field)>& spelling);
 
 // Wall-clock time for progress and timings.
 using Clock = std::chrono::steady_clock;

@@ -28,6 +28,9 @@ struct BudgetRequest {
   int iterations = 0;  // not 0: the mixture's EM iterations (the other methods: their own)
   std::function<void(const SweepProgress&)> progress;  // each fit's, as run_sweep reports it
   const std::atomic<bool>* stop = nullptr;
+  // How the chosen model's note spells the option it names (core/text.hpp, spell_options):
+  // the front end's spelling; empty: the field's name.
+  std::function<std::string(std::string_view field)> option_spelling;
 };
 
 // One setting fitted.
@@ -48,7 +51,8 @@ struct BudgetChoice {
   std::vector<std::uint8_t> file;         // its model file's bytes (file_bytes of it)
 };
 
-// The note a chosen model's provenance carries (FitLog::settings): ("chosen by", this).
+// The note a chosen model's provenance carries (FitLog::settings): ("chosen by", this), the
+// option it names marked (option_name) for the request's option_spelling.
 std::string budget_note(std::uint64_t budget);
 
 // Fits and measures the candidates and keeps the best that fits. Throws Error(kArgument) for

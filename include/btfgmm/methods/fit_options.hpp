@@ -1,7 +1,8 @@
-// The settings of a fit of any method as `btfgmm fit` takes them, and the fit they ask for: one
-// place for the defaults (the mixture's M = 600, 40 iterations, the prediction objective, the
-// compact file; each method's own) that
-// the command and the Python module share, so that both fit the same model.
+// The settings of a fit of any method as `btfgmm fit` takes them, the one table of which method
+// takes which of them (with their ranges), and the fit they ask for: one place for the
+// defaults (the mixture's: FitConfig and EmConfig, model/fit.hpp; the prediction objective and
+// the compact file; each method's own) and for the checks, shared by the command and the
+// Python module, so that both fit the same model and refuse the same options.
 #pragma once
 
 #include <atomic>
@@ -10,8 +11,10 @@
 #include <functional>
 #include <memory>
 #include <optional>
+#include <span>
 #include <string>
 #include <string_view>
+#include <vector>
 
 #include "btfgmm/core/btf.hpp"
 #include "btfgmm/io/dataset.hpp"
@@ -35,6 +38,44 @@ struct FitOptions {
   std::string objective;  // gm: "prediction" (default) or "likelihood" (the paper's EM alone)
   int refine_steps = 0;   // gm, prediction: the refinement's Adam steps (0: as many as it affords)
 };
+
+// What a fit request does: a new fit, an interrupted mixture's fit resumed from its
+// checkpoint, a finished mixture continued, or the method and size chosen within a budget.
+enum class FitRoute : unsigned { kNew = 1, kResume = 2, kContinue = 4, kBudget = 8 };
+constexpr unsigned operator|(FitRoute a, FitRoute b) {
+  return unsigned(a) | unsigned(b);
+}
+constexpr unsigned operator|(unsigned a, FitRoute b) {
+  return a | unsigned(b);
+}
+
+// One option of the fit: which methods take it, with which routes it may be given, and its
+// range. Messages name it by `field` (core/text.hpp, option_name), the FitOptions field or,
+// for the options of the command's fit alone (checkpoints, the log, the output), their name.
+struct FitOptionRule {
+  std::string_view field;
+  std::string_view methods;     // the methods that take it, by name, separated by spaces; "all"
+  unsigned routes = 0;          // the FitRoutes it may be given with
+  double min = 0.0, max = 0.0;  // its range; min == max: none (text, or any number)
+  bool takes(std::string_view method) const;
+  bool has_range() const { return min < max; }
+};
+
+// Every option of the fit, in the order messages list them. A new option adds a row; a new
+// method adds its name to the rows it takes.
+std::span<const FitOptionRule> fit_option_rules();
+// The row of `field`; asserts that there is one.
+const FitOptionRule& fit_option_rule(std::string_view field);
+
+// The fields of the options `o` sets (a value other than its default).
+std::vector<std::string_view> given_fields(const FitOptions& o);
+
+// The one check of the options given (by field) against the table: those that cannot apply
+// with `route` (`source`: the checkpoint or model it goes on from, or the field of the budget
+// given) and those of the Gaussian mixture's fit alone given to another `method`. Throws
+// Error(kArgument) naming every such option (option_name), with why and the fix.
+void check_fit_options(std::span<const std::string_view> given, std::string_view method,
+                       FitRoute route, std::string_view source = {});
 
 // config.refinement_steps = steps (0: as many as the fit affords). Throws Error(kArgument)
 // for steps outside 0..kMaxRefineSteps, and for steps with an objective other than kPrediction.

@@ -20,7 +20,9 @@ struct MethodInfo {
   std::string_view name;      // as `fit --method` takes it
   std::string_view title;     // "PCA BTF: one PCA of all images"
   std::string_view citation;  // "Koudelka, Magda, Belhumeur, Kriegman 2003"
-  std::string_view sizes;     // which settings set its size ("--components c (eigen-images)")
+  // The options that set its size, named as messages name them (core/text.hpp, option_name):
+  // "`components` c (eigen-images, 61)".
+  std::string_view sizes;
   // Fits the method to a tile. Throws Error(kArgument) naming the option and its allowed
   // range for a setting the tile cannot take.
   std::function<std::unique_ptr<Representation>(const Btf& tile, const MethodSettings& s)> fit;
@@ -31,13 +33,14 @@ struct MethodInfo {
   // Settings that span compression ratios from about 1:5 to 1:500 on a tile of this frame
   // (as Table 2 counts them), smallest model first; `sweep` fits each.
   std::function<std::vector<MethodSettings>(const ModelFrame& frame)> ladder;
-  // The storage `fit` uses when none is asked (the mixture's f32 keeps it exact, so that a
-  // fit can go on from its file), and the smallest the method takes: what `sweep` compares,
-  // every file as small as its precision allows (docs/METHODS.md, "Storage").
+  // The storage `fit` uses when none is asked, and the smallest the method takes: what `sweep`
+  // compares, every file as small as its precision allows (docs/METHODS.md, "Storage"). The
+  // mixture's file has encodings of its own: `fit` writes its compact one unless asked
+  // (mixture_fit_request, methods/fit_options.hpp) and reads no fit_encoding for it; its row
+  // names f32, its exact storage, which `sweep` and `fit --budget` never choose (they store
+  // it at smallest_encoding, f16).
   FactorEncoding fit_encoding = FactorEncoding::kQ8;
   FactorEncoding smallest_encoding = FactorEncoding::kQ8;
-  // Whether it models a Gaussian-Laplacian pyramid (takes `fit --levels`).
-  bool pyramid = false;
 };
 
 // Every method, the Gaussian mixture ("gm") first.

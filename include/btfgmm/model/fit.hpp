@@ -34,6 +34,13 @@ struct FitConfig {
   int refinement_steps = 0;
 };
 
+// The mixture's fit of `components` components and `iterations` EM iterations (0: the
+// defaults above, M = 600 and EmConfig's 40) from `seed` on `threads` (0: OpenMP's default),
+// with the prediction objective (the best, docs/ALGORITHM.md) and as many refinement steps as
+// it affords. The one place every fit of the mixture (the command's, Python's, sweep's) takes
+// its settings from.
+FitConfig mixture_config(std::size_t components, int iterations, std::uint64_t seed, int threads);
+
 // Mean BRDF, samples, initialisation and EM on a BTF tile. With `resume`, EM continues from
 // that state instead of a fresh initialisation (the same tile and settings are the caller's
 // to check: run_fit does). `after_iteration` as for fit_em. If the fit was interrupted

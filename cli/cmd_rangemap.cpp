@@ -14,12 +14,12 @@
 namespace btfgmm::cli {
 namespace {
 
-struct RangeMapOptions {
+struct RangeMapArguments {
   std::string input, out, tile;
   double max_light_theta = 60.0;
 };
 
-void run_rangemap(const RangeMapOptions& o) {
+void run_rangemap(const RangeMapArguments& o) {
   output_image_format(o.out);  // a bad name fails before any work
   const BtfSource src = BtfSource::open(o.input);
   const Btf btf = src.load(tile_option(src, o.tile, false));
@@ -35,8 +35,8 @@ void run_rangemap(const RangeMapOptions& o) {
 
 }  // namespace
 
-void register_texture_commands(CLI::App& app, Commands& commands) {
-  auto o = std::make_shared<RangeMapOptions>();
+void register_rangemap_command(CLI::App& app, Commands& commands) {
+  auto o = std::make_shared<RangeMapArguments>();
   auto* r = app.add_subcommand(
       "rangemap",
       "The range map of a BTF: photometric-stereo normals from the top view's images, "

@@ -20,7 +20,7 @@ std::string db_text(double v) {
 }
 
 // The bytes a --ratio R asks for: the tile's data, a byte a value, over R.
-std::uint64_t budget_bytes(const BudgetFitOptions& o, const Btf& tile) {
+std::uint64_t budget_bytes(const BudgetFitArguments& o, const Btf& tile) {
   if (o.budget > 0) return o.budget;
   const double raw = ModelFrame::of(tile).data_values();
   return std::uint64_t(std::floor(raw / o.ratio));
@@ -36,7 +36,7 @@ void print_candidates(const BudgetChoice& c, std::uint64_t budget) {
                db_text(b.psnr_db), k == c.chosen ? "chosen" : (b.fits ? "" : "over the budget"));
   }
   for (const SkippedSetting& s : c.skipped)
-    fmt::print(stderr, "skipped  {} {}: {}\n", s.method, s.settings, s.message);
+    fmt::print(stderr, "skipped  {} {}: {}\n", s.method, s.settings, command_line_text(s.message));
   for (const std::string& m : c.synthesis_methods)
     fmt::print(stderr, "left out {}: it synthesises new texture, no pixel-wise PSNR\n", m);
   const BudgetCandidate& b = c.candidates[c.chosen];
@@ -49,7 +49,7 @@ void print_candidates(const BudgetChoice& c, std::uint64_t budget) {
 
 }  // namespace
 
-void run_budget_fit(const BudgetFitOptions& o) {
+void run_budget_fit(const BudgetFitArguments& o) {
   if (o.input.empty() || o.out.empty())
     throw Error(Error::Kind::kArgument, "fit --budget needs an input BTF and -o MODEL");
   check_output_file(o.out, o.overwrite);
@@ -68,6 +68,7 @@ void run_budget_fit(const BudgetFitOptions& o) {
   r.seed = o.seed;
   r.threads = o.threads;
   r.iterations = o.iterations;
+  r.option_spelling = command_line_option;
   if (!o.quiet) {
     fmt::print(stderr, "budget {} bytes for the {}x{} tile ({:.0f} data bytes, 1:{:.1f})\n",
                r.budget, tile.width(), tile.height(), ModelFrame::of(tile).data_values(),

@@ -1,0 +1,96 @@
+// btfgmm tile: the tile of a BTF that repeats with the least visible seams.
+#include <fmt/format.h>
+
+#include <iostream>
+#include <memory>
+
+#include "btfgmm/btfgmm.hpp"
+#include "btfgmm/core/text.hpp"
+#include "btfgmm/measure/tile.hpp"
+#include "cli_util.hpp"
+#include "commands.hpp"
+
+namespace btfgmm::cli {
+namespace {
+
+struct TileArguments {
+  std::string input, size = "32x32";
+  std::size_t images = 64, top = 1;
+  bool json = false;
+};
+
+nlohmann::json candidate_json(const btfgmm::TileCandidate& c) {
+  const btfgmm::Tile& t = c.tile;
+  return {{"tile", {t.x, t.y, t.width, t.height}},
+          {"score", c.score},
+          {"seam_error", c.seam.total},
+          {"left_right", c.seam.left_right},
+          {"top_bottom", c.seam.top_bottom},
+          {"rms_levels", c.seam.rms_levels}};
+}
+
+void run_tile(const TileArguments& o) {
+  const btfgmm::BtfSource src = btfgmm::BtfSource::open(o.input);
+  btfgmm::TileSearchConfig c = btfgmm::parse_tile_search_size(o.size, "--size");
+  c.images = o.images;
+  c.top = o.top;
+  const auto t0 = Clock::now();
+  const btfgmm::TileSearchResult r = btfgmm::find_seamless_tile(src, c);
+  const btfgmm::Tile& t = r.tile;
+  if (o.json) {
+    nlohmann::json j = candidate_json(r.ranked[0]);
+    j["candidates"] = r.candidates;
+    j["images"] = r.images;
+    j["seconds"] = seconds_since(t0);
+    if (o.top > 1) {
+      j["ranked"] = nlohmann::json::array();
+      for (const btfgmm::TileCandidate& k : r.ranked) j["ranked"].push_back(candidate_json(k));
+    }
+    std::cout << j.dump() << "\n";
+    return;
+  }
+  if (o.top > 1) {
+    fmt::print("{:>4}  {:<16} {:>7} {:>10} {:>10} {:>10}\n", "rank", "tile X,Y,W,H", "score",
+               "seam error", "left-right", "top-bottom");
+    for (std::size_t k = 0; k < r.ranked.size(); ++k) {
+      const btfgmm::TileCandidate& e = r.ranked[k];
+      fmt::print("{:>4}  {:<16} {:>7.3f} {:>10.3f} {:>10.3f} {:>10.3f}\n", k + 1,
+                 fmt::format("{},{},{},{}", e.tile.x, e.tile.y, e.tile.width, e.tile.height),
+                 e.score, e.seam.total, e.seam.left_right, e.seam.top_bottom);
+    }
+  } else {
+    fmt::print("tile {},{},{},{}\n", t.x, t.y, t.width, t.height);
+  }
+  fmt::print(stderr,
+             "seam error {:.3f} (left-right {:.3f}, top-bottom {:.3f}; 0 = repeats as the texture "
+             "continues, 1 = as different as neighbouring pixels), {:.2f} levels RMS; {} "
+             "candidates on {} images in {}\nfit it with: btfgmm fit {} --tile {},{},{},{} ...\n",
+             r.seam.total, r.seam.left_right, r.seam.top_bottom, r.seam.rms_levels, r.candidates,
+             r.images, human_seconds(seconds_since(t0)), o.input, t.x, t.y, t.width, t.height);
+}
+
+}  // namespace
+
+void register_tile_command(CLI::App& app, Commands& commands) {
+  auto to = std::make_shared<TileArguments>();
+  auto* t = app.add_subcommand(
+      "tile", "Find the tile of a BTF that repeats with the least visible seams (for fit --tile)");
+  t->add_option("input", to->input, "A BTF folder or Bonn .zip")->required();
+  t->add_option("--size", to->size,
+                "Tile size WxH; W and H may be ranges, e.g. 20-28x24. The tile chosen has the "
+                "lowest score: its seam error times its aspect ratio (longer side / shorter "
+                "side), so near-square tiles are preferred; ties go to the larger tile")
+      ->capture_default_str();
+  t->add_option("--images", to->images,
+                "(light, view) images to judge the seams on, spread over all; 0: all")
+      ->capture_default_str();
+  t->add_option("--top", to->top,
+                "List the N best tiles, the best position of each of the N best sizes, with "
+                "their scores")
+      ->check(CLI::Range(std::size_t(1), std::size_t(1000)))
+      ->capture_default_str();
+  t->add_flag("--json", to->json, "The result as one JSON object");
+  commands.push_back({t, [to] { run_tile(*to); }});
+}
+
+}  // namespace btfgmm::cli

@@ -1,0 +1,255 @@
+// btfgmm fit, the Gaussian mixture: a new fit, the interrupted one resumed (--resume) or a
+// finished one continued (--continue), in one process or over the processes of an MPI job,
+// with its progress, iteration log and signals.
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdlib>
+#include <fstream>
+#include <memory>
+#include <optional>
+#include <string>
+
+#include <unistd.h>
+
+#include "btfgmm/btfgmm.hpp"
+#include "btfgmm/core/text.hpp"
+#include "btfgmm/methods/fit_options.hpp"
+#include "btfgmm/model/fit.hpp"
+#include "btfgmm/model/model.hpp"
+#include "btfgmm/model/model_file.hpp"
+#include "cli_util.hpp"
+#include "fit_command.hpp"
+#include "provenance_text.hpp"
+#include "stop_signals.hpp"
+#include "tile_option.hpp"
+
+namespace btfgmm::cli {
+
+void print_loaded(const btfgmm::FitTile& t, double seconds) {
+  fmt::print(stderr, "loaded {}x{} pixels at ({}, {}) x {} lights x {} views = {} samples in {}\n",
+             t.origin.width, t.origin.height, t.origin.x, t.origin.y, t.lights.size(),
+             t.views.size(), t.samples(), human_seconds(seconds));
+}
+
+namespace {
+
+// A new fit, as the options ask.
+btfgmm::FitRequest new_fit_request(const FitArguments& o) {
+  if (o.input.empty() || o.out.empty())
+    throw Error(Error::Kind::kArgument,
+                "fit needs an input BTF and -o MODEL (or --resume CHECKPOINT to continue an "
+                "interrupted fit, or --continue MODEL --iterations N -o MODEL to go on with a "
+                "finished one)");
+  check_fit_arguments(o, btfgmm::FitRoute::kNew);
+  btfgmm::FitRequest r = btfgmm::mixture_fit_request(library_options(o), o.input, o.out);
+  r.checkpoint = o.checkpoint;
+  return r;
+}
+
+// With --resume, the interrupted fit continued: everything (the output included) from its
+// checkpoint, which keeps the state unless --checkpoint names another.
+btfgmm::FitRequest resume_fit_request(const FitArguments& o) {
+  check_fit_arguments(o, btfgmm::FitRoute::kResume, o.resume);
+  btfgmm::FitRequest r = btfgmm::resume_request(o.resume);
+  if (!o.checkpoint.empty()) r.checkpoint = o.checkpoint;
+  // A checkpoint holds EM's state, before any refinement: the objective is the command's.
+  r.config.objective =
+      btfgmm::parse_objective(o.objective.empty() ? "prediction" : o.objective, "--objective");
+  return r;
+}
+
+// With --continue, the finished mixture's EM goes on to --iterations in all, from its stored
+// parameters, on its data (the input, or the source its provenance records).
+btfgmm::FitRequest continue_fit_request(const FitArguments& o) {
+  check_fit_arguments(o, btfgmm::FitRoute::kContinue, o.continue_from);
+  if (!o.given.count("--iterations") || o.out.empty())
+    throw Error(Error::Kind::kArgument,
+                fmt::format("--continue {} needs --iterations N (the total number of EM "
+                            "iterations, more than the model has run) and -o MODEL",
+                            o.continue_from));
+  btfgmm::FitRequest r = btfgmm::continue_request(o.continue_from, o.input, o.iterations, o.out);
+  r.checkpoint = o.checkpoint;
+  return r;
+}
+
+// A new fit, the interrupted one resumed (--resume), or a finished one continued
+// (--continue); --iterations and --epsilon apply to each.
+btfgmm::FitRequest fit_request(const FitArguments& o) {
+  btfgmm::FitRequest r = !o.resume.empty()          ? resume_fit_request(o)
+                         : !o.continue_from.empty() ? continue_fit_request(o)
+                                                    : new_fit_request(o);
+  if (r.resume && o.given.count("--iterations")) r.config.em.max_iterations = o.iterations;
+  if (r.resume && o.given.count("--epsilon")) r.config.em.epsilon = o.epsilon;
+  // Resumed or continued: checked against the objective (a continuation's is its model's).
+  if (o.given.count("--refine-steps")) btfgmm::set_refine_steps(r.config, o.refine_steps);
+  r.checkpoint_every = o.checkpoint_every;
+  r.config.em.threads = o.threads;
+  r.config.em.stop = &g_stop;
+  return r;
+}
+
+// --tile X,Y,W,H or auto:WxH: the data is opened here for the search, and the fit reads it.
+void choose_fit_tile(btfgmm::FitRequest& r, const std::string& tile, bool quiet) {
+  if (r.resume || tile.empty()) return;  // a resume fits the checkpoint's tile
+  auto src = std::make_shared<const btfgmm::BtfSource>(btfgmm::BtfSource::open(r.input));
+  r.tile = tile_option(*src, tile, quiet);
+  r.source = std::move(src);
+}
+
+// Where this run of a fit starts: after `iteration` iterations (0, or those of the fit it
+// resumes or continues) that took `seconds`.
+struct RunStart {
+  int iteration = 0;
+  double seconds = 0.0;
+};
+
+// The memory this process holds now (its resident set, /proc/self/statm), 0 where unknown.
+double memory_in_use() {
+  std::ifstream statm("/proc/self/statm");
+  double pages = 0, resident = 0;
+  if (!(statm >> pages >> resident)) return 0.0;
+  return resident * double(sysconf(_SC_PAGESIZE));
+}
+
+// The fit for the prediction's gradient steps: the first, every tenth of them and the last,
+// with the RMSE (levels) on the steps' subsample and the time left.
+void print_refinement(const btfgmm::GradientProgress& p, Clock::time_point since) {
+  const int every = std::max(1, (p.steps + 9) / 10);
+  if (p.step % every != 0 && p.step != p.steps) return;
+  const double seconds = seconds_since(since);
+  const double left = p.step > 0 ? seconds / p.step * (p.steps - p.step) : 0.0;
+  fmt::print(stderr, "refining for the prediction: step {:>4}/{}  RMSE {:.2f} levels  {}  ETA {}\n",
+             p.step, p.steps, p.rmse, human_seconds(seconds), human_seconds(left));
+}
+
+// One EM iteration; the time left is estimated from this run's iterations. The first
+// iteration of a fit has no gain.
+void print_iteration(const btfgmm::EmProgress& p, const RunStart& start) {
+  const double per = (p.seconds - start.seconds) / std::max(1, p.iteration - start.iteration);
+  const std::string gain =
+      std::isnan(p.relative_gain) ? std::string() : fmt::format("gain {:+.2e}", p.relative_gain);
+  fmt::print(stderr,
+             "iteration {:>3}/{}  L = {:.6f}  {:<14}  components {} ({} dropped)  {}  ETA {}  "
+             "memory {}\n",
+             p.iteration, p.max_iterations, p.log_likelihood, gain, p.components, p.dropped,
+             human_seconds(p.seconds), human_seconds(per * (p.max_iterations - p.iteration)),
+             human_bytes(memory_in_use()));
+}
+
+// The model written. Its L is of the parameters written, after the last M-step; each
+// iteration's line shows L of the parameters it started from (docs/ALGORITHM.md).
+void print_written(const std::string& out, const btfgmm::FitOutcome& fit, const RunStart& start) {
+  const btfgmm::BtfModel& model = fit.model;
+  const btfgmm::FitLog& log = model.provenance.fit;
+  const std::string last =
+      log.iterations.empty()
+          ? std::string()
+          : fmt::format(" (iteration {} showed L = {:.6f}, before its M-step)",
+                        log.iterations.size(), log.iterations.back().log_likelihood);
+  const std::string time =
+      start.iteration > 0 ? fmt::format("{} in all, {} in this run from iteration {} on",
+                                        human_seconds(log.seconds),
+                                        human_seconds(model.settings.seconds), start.iteration + 1)
+                          : human_seconds(log.seconds);
+  fmt::print(stderr,
+             "wrote {}: M = {} ({} dropped), L = {:.6f} after the last M-step{}, {} bytes, "
+             "compression 1:{:.1f} (paper's count) / 1:{:.1f} (file), fit in {}\n",
+             out, model.mixture.size(), model.settings.dropped, model.settings.log_likelihood, last,
+             fit.file_bytes, model.compression_ratio_paper(),
+             model.compression_ratio_file(fit.file_bytes), time);
+  if (const auto& r = fit.refinement) {
+    fmt::print(stderr,
+               "refined for the prediction in {} Adam steps: RMSE {:.2f} levels after EM, {:.2f} "
+               "after the colour refit, {:.2f} in the model (on {} samples)\n",
+               r->steps, btfgmm::prediction_rmse(r->error_em, r->samples),
+               btfgmm::prediction_rmse(r->error_colour, r->samples),
+               btfgmm::prediction_rmse(r->error_final, r->samples), r->samples);
+  }
+}
+
+// `fit --log FILE`: opened once the fit starts, with the iterations of the fit it resumes or
+// continues first.
+std::optional<IterationLog> open_iteration_log(const FitArguments& o, const btfgmm::FitRequest& r) {
+  if (o.log.empty()) return std::nullopt;
+  IterationLog log(o.log, r.config.components);
+  if (r.resume) {
+    const btfgmm::EmResult& e = r.resume->checkpoint.state.result;
+    for (std::size_t i = 0; i < e.log_likelihood.size(); ++i)
+      log.add({e.log_likelihood[i], i < e.seconds.size() ? e.seconds[i] : 0.0,
+               i < e.components.size() ? e.components[i] : 0u});
+  }
+  return log;
+}
+
+}  // namespace
+
+void run_mixture_fit(const FitArguments& options,
+                     const std::shared_ptr<btfgmm::Communicator>& processes) {
+  FitArguments o = options;
+  if (processes && processes->rank() != 0) {
+    o.quiet = true;
+    o.log.clear();  // process 0 writes the iteration log
+  }
+  btfgmm::FitRequest r = fit_request(o);
+  r.processes = processes;
+  const bool resumed = r.resume && !r.resume->finished_model;
+  check_output_file(r.output, o.overwrite || resumed);
+  if (!r.checkpoint.empty()) check_output_file(r.checkpoint, true);
+  if (!o.log.empty()) check_output_file(o.log, o.overwrite || resumed);
+  const auto t0 = Clock::now();
+  choose_fit_tile(r, o.tile, o.quiet);
+  RunStart start;
+  if (r.resume) {
+    const btfgmm::EmResult& e = r.resume->checkpoint.state.result;
+    start = {e.iterations, e.seconds.empty() ? 0.0 : e.seconds.back()};
+  }
+  std::optional<StopOnSignals> stop_on_signals;
+  std::optional<IterationLog> log;
+  btfgmm::FitObserver observer;
+  observer.started = [&](const btfgmm::FitTile& tile) {
+    if (!o.quiet) print_loaded(tile, seconds_since(t0));
+    if (r.resume && !o.quiet)
+      fmt::print(stderr, "{} {} after iteration {}\n", resumed ? "resuming from" : "continuing",
+                 r.resume->path, start.iteration);
+    log = open_iteration_log(o, r);
+    stop_on_signals.emplace();
+  };
+  observer.iteration = [&](const btfgmm::EmProgress& p) {
+    if (!o.quiet) print_iteration(p, start);
+    if (log) log->add({p.log_likelihood, p.seconds, std::uint32_t(p.components)});
+  };
+  std::optional<Clock::time_point> refinement_start;
+  observer.refinement = [&](const btfgmm::GradientProgress& p) {
+    if (o.quiet) return;
+    if (!refinement_start) refinement_start = Clock::now();
+    print_refinement(p, *refinement_start);
+  };
+  const btfgmm::FitOutcome fit = btfgmm::run_fit(r, observer);
+  stop_on_signals.reset();
+  if (fit.interrupted) {
+    // Not an error, but the fit is not done: said even with --quiet.
+    fmt::print(stderr,
+               "interrupted after iteration {} of {}; nothing is lost: the fit's state is in "
+               "{}\ncontinue with: btfgmm fit --resume {}\n",
+               fit.iterations, r.config.em.max_iterations, fit.checkpoint, fit.checkpoint);
+    std::exit(130);
+  }
+  if (!o.quiet) print_written(r.output, fit, start);
+  if (fit.refinement && fit.refinement->stopped) {
+    // The model is written, but with fewer steps than the fit affords: said even with --quiet.
+    fmt::print(stderr,
+               "interrupted during the refinement for the prediction after step {} of {}: {} "
+               "holds the lowest error met so far, and is complete{}\n",
+               fit.refinement->steps, fit.refinement->steps_planned, r.output,
+               fit.checkpoint.empty()
+                   ? std::string("; fit again for the whole refinement")
+                   : fmt::format("; EM's state is in {}\nrefine again without EM with: btfgmm fit "
+                                 "--resume {}",
+                                 fit.checkpoint, fit.checkpoint));
+    std::exit(130);
+  }
+}
+
+}  // namespace btfgmm::cli
