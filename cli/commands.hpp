@@ -22,5 +22,6 @@ void register_render_commands(CLI::App& app, Commands& commands);   // render, t
 void register_sweep_commands(CLI::App& app, Commands& commands);    // sweep
 void register_view_commands(CLI::App& app, Commands& commands);     // view, export-shader
 void register_texture_commands(CLI::App& app, Commands& commands);  // rangemap
+void register_convert_commands(CLI::App& app, Commands& commands);  // convert
 
 }  // namespace btfgmm::cli

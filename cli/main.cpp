@@ -28,6 +28,7 @@ int main(int argc, char** argv) {
   btfgmm::cli::register_sweep_commands(app, commands);
   btfgmm::cli::register_view_commands(app, commands);
   btfgmm::cli::register_texture_commands(app, commands);
+  btfgmm::cli::register_convert_commands(app, commands);
 
   if (argc == 1) {  // a bare `btfgmm`: what it does, its commands and an example
     btfgmm::cli::print_overview(app);
