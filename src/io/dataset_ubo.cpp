@@ -38,8 +38,8 @@ std::vector<std::pair<std::string, std::string>> ubo_details(const UboBtfHeader&
     d.emplace_back("colour model",
                    fmt::format("{} ({})", h.colour_model, ubo_colour_model_name(h.colour_model)));
   else
-    d.emplace_back("dynamic range", h.dynamic_range_reduction == 0 ? "linear (no reduction)"
-                                                                   : "log(value + 1e-5) stored");
+    d.emplace_back("range", h.dynamic_range_reduction == 0 ? "linear (no reduction)"
+                                                           : "log(value + 1e-5) stored");
   d.emplace_back("cosine",
                  h.cosine_in_data ? "in the data (divided out when decoding)" : "not in the data");
   d.emplace_back("metadata", fmt::format("version {}", h.version));
