@@ -44,10 +44,12 @@ read -r t_conv m_conv < <(measure "$build/btfgmm" convert "$work/m.btf" --tile "
 t2=$((2 * tile))
 read -r t_conv2 m_conv2 < <(measure "$build/btfgmm" convert "$work/m.btf" --tile "0,0,$t2,$t2" -q -o "$work/t2")
 images=$(find "$work/t1" -name '*.exr' | wc -l)
-printf '%-44s %10s %12s\n' "process" "seconds" "peak MiB"
-printf '%-44s %10.2f %12.1f\n' "info (open: header, U)" "$t_info" "$(echo "$m_info / 1024" | bc -l)"
-printf '%-44s %10.2f %12.1f\n' "convert --tile 0,0,$tile,$tile ($images EXR images)" "$t_conv" "$(echo "$m_conv / 1024" | bc -l)"
-printf '%-44s %10.2f %12.1f\n' "convert --tile 0,0,$t2,$t2" "$t_conv2" "$(echo "$m_conv2 / 1024" | bc -l)"
-printf 'ratios: convert / info peak memory %.2f; %dx%d / %dx%d tile: time %.2f, peak memory %.2f\n' \
-  "$(echo "$m_conv / $m_info" | bc -l)" "$t2" "$t2" "$tile" "$tile" \
-  "$(echo "$t_conv2 / $t_conv" | bc -l)" "$(echo "$m_conv2 / $m_conv" | bc -l)"
+awk -v ti="$t_info" -v mi="$m_info" -v tc="$t_conv" -v mc="$m_conv" -v t2c="$t_conv2" \
+  -v m2c="$m_conv2" -v tile="$tile" -v t2="$t2" -v images="$images" 'BEGIN {
+  printf "%-44s %10s %12s\n", "process", "seconds", "peak MiB"
+  printf "%-44s %10.2f %12.1f\n", "info (open: header, U)", ti, mi / 1024
+  printf "%-44s %10.2f %12.1f\n", "convert --tile 0,0," tile "," tile " (" images " EXR images)", tc, mc / 1024
+  printf "%-44s %10.2f %12.1f\n", "convert --tile 0,0," t2 "," t2, t2c, m2c / 1024
+  printf "ratios: convert / info peak memory %.2f; %dx%d / %dx%d tile: time %.2f, peak memory %.2f\n",
+    mc / mi, t2, t2, tile, tile, t2c / tc, m2c / mc
+}'
