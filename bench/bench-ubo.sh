@@ -50,6 +50,5 @@ awk -v ti="$t_info" -v mi="$m_info" -v tc="$t_conv" -v mc="$m_conv" -v t2c="$t_c
   printf "%-44s %10.2f %12.1f\n", "info (open: header, U)", ti, mi / 1024
   printf "%-44s %10.2f %12.1f\n", "convert --tile 0,0," tile "," tile " (" images " EXR images)", tc, mc / 1024
   printf "%-44s %10.2f %12.1f\n", "convert --tile 0,0," t2 "," t2, t2c, m2c / 1024
-  printf "ratios: convert / info peak memory %.2f; %dx%d / %dx%d tile: time %.2f, peak memory %.2f\n",
-    mc / mi, t2, t2, tile, tile, t2c / tc, m2c / mc
+  printf "ratios: convert / info peak memory %.2f; %dx%d / %dx%d tile: time %.2f, peak memory %.2f\n", mc / mi, t2, t2, tile, tile, t2c / tc, m2c / mc
 }'
