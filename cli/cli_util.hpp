@@ -149,11 +149,11 @@ inline std::string json_text(const nlohmann::json& j) {
   return out + "\n";
 }
 
-// A path names a model file when it is a regular file that is not a zip.
+// A path names a model file when it is a regular file that is neither a zip nor a Bonn .btf.
 inline bool is_model_path(const std::filesystem::path& p) {
   std::error_code ec;
   if (!std::filesystem::is_regular_file(p, ec)) return false;
-  return btfgmm::lower(p.extension().string()) != ".zip";
+  return btfgmm::lower(p.extension().string()) != ".zip" && !btfgmm::is_ubo_btf_file(p);
 }
 
 // The lines `info` and `compare` print for a model's method, size and facts.

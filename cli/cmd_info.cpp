@@ -39,6 +39,7 @@ void info_btf(const std::string& path, bool json) {
     j["ignored_files"] = i.ignored_files;
     j["light_directions"] = set_json(i.lights);
     j["view_directions"] = set_json(i.views);
+    for (const auto& [k, v] : i.details) j["details"][k] = v;
     std::cout << json_text(j);
     return;
   }
@@ -48,13 +49,15 @@ void info_btf(const std::string& path, bool json) {
   fmt::print("  views        {}\n", describe_set(i.views));
   fmt::print("  images       {} ({} x {})\n", images, i.lights.size(), i.views.size());
   fmt::print("  image size   {} x {} pixels, RGB\n", i.width, i.height);
+  const bool factors = i.layout == btfgmm::Layout::kUboBtf;  // no image files
   fmt::print("  bit depth    {} ({})\n", btfgmm::to_string(i.format),
-             btfgmm::to_string(i.image_format));
+             factors ? "decoded from the factors" : btfgmm::to_string(i.image_format));
   fmt::print("  bytes        {} in files; {} as 8-bit RGB (W*H*ni*nv*3 = {:.0f})\n",
              human_bytes(double(i.file_bytes)), human_bytes(raw8), raw8);
   if (i.ignored_files > 0)
     fmt::print("  ignored      {} files that are not images\n", i.ignored_files);
-  fmt::print("  first image  {}\n", src.image_name(0, 0));
+  for (const auto& [k, v] : i.details) fmt::print("  {:<12} {}\n", k, v);
+  if (!factors) fmt::print("  first image  {}\n", src.image_name(0, 0));
 }
 
 void info_model(const std::string& path, bool json) {
@@ -104,8 +107,10 @@ void info_model(const std::string& path, bool json) {
 void register_info_command(CLI::App& app, Commands& commands) {
   auto info_path = std::make_shared<std::string>();
   auto info_json = std::make_shared<bool>(false);
-  auto* inf = app.add_subcommand("info", "Describe a BTF (folder or Bonn .zip) or a model file");
-  inf->add_option("path", *info_path, "A BTF folder or .zip, or a .btfgmm model")->required();
+  auto* inf = app.add_subcommand(
+      "info", "Describe a BTF (folder, Bonn .zip or Bonn .btf file) or a model file");
+  inf->add_option("path", *info_path, "A BTF folder, .zip or .btf file, or a .btfgmm model")
+      ->required();
   inf->add_flag("--json", *info_json, "One JSON object for scripts");
 
   commands.push_back({inf, [info_path, info_json] {

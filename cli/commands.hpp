@@ -28,5 +28,6 @@ void register_sweep_command(CLI::App& app, Commands& commands);
 void register_view_command(CLI::App& app, Commands& commands);
 void register_export_shader_command(CLI::App& app, Commands& commands);
 void register_rangemap_command(CLI::App& app, Commands& commands);
+void register_convert_command(CLI::App& app, Commands& commands);
 
 }  // namespace btfgmm::cli

@@ -27,7 +27,8 @@ int main(int argc, char** argv) {
        {register_generate_command, register_info_command, register_fit_command,
         register_decode_command, register_eval_command, register_compare_command,
         register_render_command, register_tile_command, register_sweep_command,
-        register_view_command, register_export_shader_command, register_rangemap_command})
+        register_view_command, register_export_shader_command, register_rangemap_command,
+        register_convert_command})
     register_command(app, commands);
 
   if (argc == 1) {  // a bare `btfgmm`: what it does, its commands and an example

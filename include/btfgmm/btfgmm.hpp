@@ -13,10 +13,12 @@
 #include "btfgmm/core/parse.hpp"
 #include "btfgmm/core/text.hpp"
 // io: files, images, data sets
+#include "btfgmm/io/convert.hpp"
 #include "btfgmm/io/dataset.hpp"
 #include "btfgmm/io/files.hpp"
 #include "btfgmm/io/image.hpp"
 #include "btfgmm/io/image_names.hpp"
+#include "btfgmm/io/ubo_btf.hpp"
 #include "btfgmm/io/utia.hpp"
 // model: the mixture, samples, EM, fitting, prediction, the model file, checkpoints
 #include "btfgmm/model/checkpoint.hpp"

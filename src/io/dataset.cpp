@@ -20,6 +20,7 @@
 #include "btfgmm/core/text.hpp"
 #include "btfgmm/io/file_kind.hpp"
 #include "btfgmm/io/files.hpp"
+#include "btfgmm/io/ubo_btf.hpp"
 #include "io/angle_names.hpp"
 #include "io/parallel_each.hpp"
 #include "io/zip.hpp"
@@ -392,6 +393,8 @@ std::string to_string(Layout l) {
       return "Bonn (folder)";
     case Layout::kBonnZip:
       return "Bonn (zip)";
+    case Layout::kUboBtf:
+      return "Bonn .btf file";
   }
   return "?";
 }
@@ -401,6 +404,7 @@ const std::string& BtfSource::image_name(std::size_t light, std::size_t view) co
 }
 
 BtfSource BtfSource::open(const fs::path& path) {
+  if (is_ubo_btf_file(path)) return open_ubo(path);
   const bool zip = is_zip_source(path);
   BtfSource src;
   BtfInfo& info = src.info_;
@@ -479,6 +483,7 @@ Btf BtfSource::load(const Tile& tile) const {
 
 void BtfSource::read_tiles(const Tile& tile, std::size_t first, std::size_t last,
                            const TileSink& take) const {
+  if (ubo_) return read_ubo_tiles(tile, first, last, take);
   const BtfInfo& info = info_;
   const Tile t = tile_inside(info, tile);
   const bool zip = info.layout == Layout::kBonnZip;

@@ -294,6 +294,12 @@ TileSearchResult find_seamless_tile(const Btf& btf, const TileSearchConfig& conf
 
 TileSearchResult find_seamless_tile(const BtfSource& source, const TileSearchConfig& config) {
   const BtfInfo& info = source.info();
+  if (info.layout == Layout::kUboBtf)
+    throw Error(Error::Kind::kArgument,
+                fmt::format("{}: the seamless-tile search (--tile auto:WxH) reads whole images, "
+                            "and a Bonn .btf file's are decoded per tile; give the tile as "
+                            "--tile X,Y,W,H",
+                            info.path.string()));
   check_config(config, info.width, info.height);
   SeamSums sums(info.width, info.height, config);
   const std::size_t nv = info.views.size();

@@ -7,6 +7,8 @@
 //   UTIA, flat:    tl000_pl000_tv000_pv000.png
 //   Bonn UBO2003:  00008 tl000 pl000 tv030 pv030.jpg  (or with '_' separators), in folders
 //                  or inside the material's .zip (read in place)
+//   Bonn UBO2014:  one .btf file (!DFMF08FCR or !FMF12FCER, btfgmm/io/ubo_btf.hpp), known by its
+//                  signature; its directions as the file lists them, its images decoded per tile
 // The light set is every distinct (tl, pl), the view set every distinct (tv, pv), each sorted
 // by theta then phi (for the 81-direction sets this is the UBO2003 order). Every (light,
 // view) pair must have exactly one image, all of one size and kind.
@@ -15,9 +17,11 @@
 #include <cstdint>
 #include <filesystem>
 #include <functional>
+#include <memory>
 #include <optional>
 #include <span>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "btfgmm/core/btf.hpp"
@@ -32,6 +36,7 @@ enum class Layout {
   kUtiaFlat,    // all images in one folder
   kBonnFolder,  // Bonn names (leading image index), unpacked
   kBonnZip,     // Bonn names inside a .zip
+  kUboBtf,      // one Bonn .btf file (a matrix factorisation), decoded per tile
 };
 std::string to_string(Layout l);
 
@@ -44,12 +49,17 @@ struct BtfInfo {
   ImageFormat image_format = ImageFormat::kPng;
   std::uint64_t file_bytes = 0;     // bytes of the image files (compressed, on disk or in zip)
   std::uint64_t ignored_files = 0;  // files that are not images (e.g. a README), skipped
+  // What a format says of itself beyond the above (a .btf file's kind, components, metadata
+  // strings), as (name, value) pairs in the order to show them; empty for image folders.
+  std::vector<std::pair<std::string, std::string>> details;
 };
+
+class UboBtf;
 
 class BtfSource {
  public:
-  // Discover the images at `path` (a folder or a .zip), check that every (light, view) pair
-  // has one image and that all images have one size and kind (reading headers only).
+  // Discover the images at `path` (a folder, a .zip, or a Bonn .btf file), check that every (light,
+  // view) pair has one image and that all images have one size and kind (reading headers only).
   // Throws Error naming the file(s) at fault and what is expected.
   static BtfSource open(const std::filesystem::path& path);
 
@@ -58,8 +68,9 @@ class BtfSource {
   const std::string& image_name(std::size_t light, std::size_t view) const;
 
   // Read a tile of every image (an empty tile reads the whole image). Only the tile is kept
-  // in memory (one decoded image per thread at a time). Throws Error(kArgument) if the tile
-  // is not inside the image, Error(kFormat/kIo) if an image cannot be read.
+  // in memory (one decoded image per thread at a time; of a .btf file, the tile's factors). Throws
+  // Error(kArgument) if the tile is not inside the image, Error(kFormat/kIo) if an image cannot be
+  // read.
   Btf load(const Tile& tile = {}) const;
 
   // Read a tile of the images first .. last - 1 (light-major indices, as Btf::image_index)
@@ -71,8 +82,13 @@ class BtfSource {
                   const TileSink& take) const;
 
  private:
+  static BtfSource open_ubo(const std::filesystem::path& path);  // io/dataset_ubo.cpp
+  void read_ubo_tiles(const Tile& tile, std::size_t first, std::size_t last,
+                      const TileSink& take) const;
+
   BtfInfo info_;
-  std::vector<std::string> names_;  // light-major, as Btf::image_index
+  std::vector<std::string> names_;     // light-major, as Btf::image_index
+  std::shared_ptr<const UboBtf> ubo_;  // a .btf file's factors, else null
 };
 
 }  // namespace btfgmm
