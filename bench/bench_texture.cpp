@@ -9,12 +9,13 @@
 // x and y, the luminance histogram's distance, the largest row/column mean jump against the
 // data's (a streak) and the shares of saturated values. Prints a markdown row per material
 // and method (the worst image of each figure, the means of the others) and, with --pictures
-// DIR, writes DIR/texture-MATERIAL.png: three of the images, a row each, the data tiled
-// 2 x 2 beside each method's synthesis.
+// DIR, writes DIR/texture-MATERIAL.png: the middle one of the images, its data tiled 2 x 2
+// beside each method's synthesis; with --above DIR2, below DIR2's picture of the same name
+// (a before/after pair).
 //
 //   bench_texture [--size S] [--synthesis T] [--lights SPEC] [--views SPEC] [--images N]
 //                 [--materials a,b] [--methods a,b] [--clusters C] [--levels K]
-//                 [--pictures DIR] [--models DIR]
+//                 [--pictures DIR] [--above DIR2] [--models DIR]
 //
 // --models DIR reads DIR/MATERIAL-METHOD.btfgmm instead of fitting (models fitted by another
 // btfgmm to the same generated data, e.g. an older one: `btfgmm generate ... -o knit` and
@@ -43,7 +44,7 @@ using namespace btfgmm;
 struct Options {
   int size = 64, synthesis = 128, images = 12, levels = 0;
   std::size_t clusters = 0;
-  std::string lights = "spiral:25", views = "spiral:9", pictures, models;
+  std::string lights = "spiral:25", views = "spiral:9", pictures, models, above;
   std::vector<std::string> materials = {"knit", "corduroy", "leather"};
   std::vector<std::string> methods = {"3d-car", "2d-car", "gmrf"};
 };
@@ -140,27 +141,37 @@ void print_row(const std::string& material, const std::string& method, const Rep
   std::fflush(stdout);
 }
 
-// Rows of three images: the data tiled 2 x 2, then each method's synthesis, 4 pixels apart.
+// One row: the middle chosen image's data tiled 2 x 2, then each method's synthesis, 4 pixels
+// apart; below the row of the same name in `above_dir` where one is given (a before/after
+// pair).
 void write_picture_of(const std::filesystem::path& path, const Btf& data,
                       const std::vector<std::vector<Pair>>& methods, const Options& o) {
   constexpr int kGap = 4;
-  const int t = o.synthesis, cols = 1 + int(methods.size()), rows = 3;
-  const int w = cols * t + (cols - 1) * kGap, h = rows * t + (rows - 1) * kGap;
-  std::vector<float> img(std::size_t(w) * std::size_t(h) * 3, 255.0f);
-  const auto put = [&](int ox, int oy, const std::vector<float>& src, int sw, int sh) {
+  const int t = o.synthesis, cols = 1 + int(methods.size());
+  const int w = cols * t + (cols - 1) * kGap;
+  std::vector<float> img(std::size_t(w) * std::size_t(t) * 3, 255.0f);
+  const auto put = [&](int ox, const std::vector<float>& src, int sw, int sh) {
     for (int y = 0; y < t; ++y)
       for (int x = 0; x < t; ++x)
         for (int c = 0; c < 3; ++c)
-          img[(std::size_t(oy + y) * std::size_t(w) + std::size_t(ox + x)) * 3 + std::size_t(c)] =
+          img[(std::size_t(y) * std::size_t(w) + std::size_t(ox + x)) * 3 + std::size_t(c)] =
               src[(std::size_t(y % sh) * std::size_t(sw) + std::size_t(x % sw)) * 3 +
                   std::size_t(c)];
   };
-  for (int r = 0; r < rows; ++r) {
-    const std::size_t k = std::size_t(r) * (methods[0].size() - 1) / 2;
-    const int oy = r * (t + kGap);
-    put(0, oy, methods[0][k].data, data.width(), data.height());
-    for (std::size_t m = 0; m < methods.size(); ++m)
-      put(int(m + 1) * (t + kGap), oy, methods[m][k].model, t, t);
+  const std::size_t k = methods[0].size() / 2;
+  put(0, methods[0][k].data, data.width(), data.height());
+  for (std::size_t m = 0; m < methods.size(); ++m)
+    put(int(m + 1) * (t + kGap), methods[m][k].model, t, t);
+  int h = t;
+  if (!o.above.empty()) {
+    const Image above = read_image(std::filesystem::path(o.above) / path.filename());
+    if (above.width == w) {
+      std::vector<float> both(above.rgb);
+      both.resize(both.size() + std::size_t(w) * kGap * 3, 255.0f);
+      both.insert(both.end(), img.begin(), img.end());
+      img = std::move(both);
+      h += above.height + kGap;
+    }
   }
   write_png(path, w, h, img);
 }

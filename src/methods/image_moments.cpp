@@ -119,6 +119,13 @@ ImageMoments get_image_moments(ByteReader& r, std::size_t images) {
   return m;
 }
 
+float within_levels(float v) {
+  constexpr float lo = 1.0f + kKnee, hi = 254.0f - kKnee;
+  if (v > hi) return hi + kKnee * std::tanh((v - hi) / kKnee);
+  if (v < lo) return lo - kKnee * std::tanh((lo - v) / kKnee);
+  return v;
+}
+
 void match_moments(float* rgb, std::size_t pixels, const float* mean, const float* deviation) {
   float have_mean[3], have_deviation[3];
   measure_moments(rgb, pixels, have_mean, have_deviation);

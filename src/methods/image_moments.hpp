@@ -41,6 +41,13 @@ void measure_moments(const float* rgb, std::size_t pixels, float* mean, float* d
 // takes the mean alone.
 void match_moments(float* rgb, std::size_t pixels, const float* mean, const float* deviation);
 
+// 8-bit and 16-bit data are held on 0-255 and cannot leave it: a value of a synthesis of such
+// data rolled off smoothly into (1, 254) past knees kKnee levels inside (v' = knee + kKnee
+// tanh((v - knee) / kKnee)), so that it is never clipped at 0 or 255 (values between the
+// knees unchanged, the map monotonic): the data's own saturated values are the only ones.
+constexpr float kKnee = 8.0f;
+float within_levels(float v);
+
 // A subspace's marginal distribution per channel: the standardised values (v - mean) / deviation
 // of its representative image at kQuantiles evenly spaced ranks (0, 1/32, .., 1), 3 x
 // kQuantiles values, channel-major. A Gaussian field's tails leave the data's range (values

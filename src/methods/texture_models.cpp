@@ -184,6 +184,8 @@ void TextureModel::predict(std::span<const Query> queries, std::span<float> rgb)
         const float scale =
             have[3 + c] > 0.0f ? moments_->deviation[image * 3 + c] / have[3 + c] : 0.0f;
         rgb[i * 3 + c] = moments_->mean[image * 3 + c] + (rgb[i * 3 + c] - have[c]) * scale;
+        if (frame_.format != SampleFormat::kHdr)
+          rgb[i * 3 + c] = detail::within_levels(rgb[i * 3 + c]);
       }
     }
   }
@@ -216,8 +218,10 @@ Btf TextureModel::decode(const DirectionSet& lights, const DirectionSet& views, 
         }
       if (moments_) {
         const std::size_t image = image_of(light, views[vi]);
-        detail::match_moments(img, std::size_t(width) * std::size_t(height),
-                              &moments_->mean[image * 3], &moments_->deviation[image * 3]);
+        const std::size_t n = std::size_t(width) * std::size_t(height);
+        detail::match_moments(img, n, &moments_->mean[image * 3], &moments_->deviation[image * 3]);
+        if (frame_.format != SampleFormat::kHdr)
+          for (std::size_t v = 0; v < n * 3; ++v) img[v] = detail::within_levels(img[v]);
       }
     }
   }
@@ -277,8 +281,12 @@ std::vector<std::pair<std::string, std::string>> TextureModel::details() const {
        fmt::format("{} (a label for each of the {} images)", subspaces_.size(), labels_.size())},
       {"pyramid levels", pyramid_text()},
       {"neighbourhood", subspaces_.empty() ? "" : subspaces_[0]->neighbourhood() + ", subspace 1"},
-      {"values", fmt::format("{} labels + {} range map + {} model parameters", labels_.size(),
-                             heights_.size(), models)},
+      {"values", fmt::format("{} labels + {} range map + {} model parameters{}", labels_.size(),
+                             heights_.size(), models,
+                             moments_ ? fmt::format(" + {} image moments + {} marginal quantiles",
+                                                    labels_.size() * 6,
+                                                    subspaces_.size() * 3 * detail::kQuantiles)
+                                      : "")},
       {"range map", fmt::format("{} x {}, heights {:.2f} to {:.2f} pixels ({})", frame_.width,
                                 frame_.height, *lo, *hi, to_string(range_encoding_))},
       {"seed", std::to_string(seed_)},
