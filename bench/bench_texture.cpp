@@ -78,6 +78,8 @@ Options parse(int argc, char** argv) {
       o.views = v;
     else if (k == "--pictures")
       o.pictures = v;
+    else if (k == "--above")
+      o.above = v;
     else if (k == "--models")
       o.models = v;
     else if (k == "--materials")

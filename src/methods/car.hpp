@@ -91,7 +91,7 @@ Field synthesise_car_spectral(const CarModel& m, int width, int height, std::uin
 // frequencies and the frequencies next to 0 of every side up to 1024 (where a model near its
 // unit root has its gain).
 double smallest_car_spectrum(const CarModel& m);
-constexpr double kMinCarSpectrum = 0.1;  // an amplitude gain of at most 10 over white noise
+constexpr double kMinCarSpectrum = 0.01;  // an amplitude gain of at most 100 over white noise
 
 // gamma scaled by the largest factor in [0, 1] (found by bisection, to 2^-16) that makes
 // smallest_car_spectrum >= kMinCarSpectrum where the estimate falls below it, then
