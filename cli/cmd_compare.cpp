@@ -42,31 +42,47 @@ std::string pair_text(const ModelFrame& m, std::size_t image) {
                      v.phi_deg);
 }
 
-// A synthesis model's statistics (pixel-wise figures mean nothing for new texture).
+// A synthesis model's statistics (pixel-wise figures mean nothing for new texture), in place
+// of RMSE, PSNR and SSIM.
 void print_texture_statistics(const TextureStatistics& t) {
   fmt::print(
-      "  synthesis    makes new texture with the data's statistics: the pixel-wise RMSE, "
-      "PSNR and SSIM below are NOT meaningful\n");
+      "  synthesis    makes new texture with the data's statistics (pixel-wise RMSE, PSNR "
+      "and SSIM mean nothing for it; the JSON still holds them)\n");
   fmt::print(
-      "  mean         data {:.2f} {:.2f} {:.2f}, model {:.2f} {:.2f} {:.2f} (R G B; "
-      "per image |difference| {:.3f})\n",
+      "  mean         data {:.2f} {:.2f} {:.2f}, model {:.2f} {:.2f} {:.2f} (R G B; per "
+      "image |difference| {:.2f} on average, {:.2f} at most)\n",
       t.data_mean[0], t.data_mean[1], t.data_mean[2], t.model_mean[0], t.model_mean[1],
-      t.model_mean[2], t.mean_difference);
+      t.model_mean[2], t.mean_difference, t.worst_mean_difference);
   fmt::print(
       "  deviation    data {:.2f} {:.2f} {:.2f}, model {:.2f} {:.2f} {:.2f} (per image "
-      "|difference| {:.3f})\n",
+      "ratio model/data {:.2f} to {:.2f})\n",
       t.data_deviation[0], t.data_deviation[1], t.data_deviation[2], t.model_deviation[0],
-      t.model_deviation[1], t.model_deviation[2], t.deviation_difference);
+      t.model_deviation[1], t.model_deviation[2], t.lowest_deviation_ratio,
+      t.highest_deviation_ratio);
   fmt::print(
       "  histogram    luminance, 32 bins: total-variation distance {:.3f} (0: equal, 1: "
       "disjoint)\n",
       t.histogram_distance);
-  fmt::print("  correlation  normalised autocorrelation up to lag {}: mean |difference| {:.3f}\n",
-             t.max_lag, t.autocorrelation_difference);
+  fmt::print(
+      "  correlation  normalised autocorrelation at lags 1-{} in x and y: |difference| {:.3f} "
+      "on average, {:.3f} at most\n",
+      t.max_lag, t.autocorrelation_difference, t.worst_autocorrelation_difference);
+  fmt::print(
+      "  streak       largest row/column mean jump, model/data: {:.2f} at most; saturated "
+      "values (0 or 255) data {:.2f} %, model {:.2f} %\n",
+      t.worst_streak_ratio, 100 * t.saturated_data, 100 * t.saturated_model);
 }
 
 std::string db(double v) {
   return std::isfinite(v) ? fmt::format("{:.2f}", v) : "inf";
+}
+
+// The file's size and the decode's time.
+void print_size_lines(const ModelComparison& c) {
+  fmt::print("  compression  1:{:.1f} by the paper's count, 1:{:.1f} by the file's {} bytes ({})\n",
+             c.model->paper_ratio(), c.model->file_ratio(c.file_bytes), c.file_bytes,
+             human_bytes(double(c.file_bytes)));
+  fmt::print("  decoded      every image of the tile in {}\n", human_seconds(c.decode_seconds));
 }
 
 void print_comparison(const ModelComparison& c) {
@@ -77,7 +93,11 @@ void print_comparison(const ModelComparison& c) {
              c.tile.width, c.tile.height, c.tile.x, c.tile.y, m.lights.size(), m.views.size(),
              to_string(m.format));
   print_model_lines(*c.model);
-  if (c.texture) print_texture_statistics(*c.texture);
+  if (c.texture) {
+    print_texture_statistics(*c.texture);
+    print_size_lines(c);
+    return;
+  }
   fmt::print("               {:>8} {:>8} {:>8} {:>8}   {:<44} {}\n", "overall", "red", "green",
              "blue", "worst image", "best image");
   const bool hdr = m.format == SampleFormat::kHdr;  // any scale: significant digits
@@ -98,10 +118,7 @@ void print_comparison(const ModelComparison& c) {
   fmt::print(
       "  mean BRDF    alone (each image its mean colour): RMSE {}, PSNR {} dB, SSIM {:.4f}\n",
       rm(c.mean_brdf_only.rmse), db(c.mean_brdf_only.psnr_db), c.mean_brdf_only.ssim);
-  fmt::print("  compression  1:{:.1f} by the paper's count, 1:{:.1f} by the file's {} bytes ({})\n",
-             c.model->paper_ratio(), c.model->file_ratio(c.file_bytes), c.file_bytes,
-             human_bytes(double(c.file_bytes)));
-  fmt::print("  decoded      every image of the tile in {}\n", human_seconds(c.decode_seconds));
+  print_size_lines(c);
   fmt::print(
       "  measured     {}; PSNR = 20 log10(R / RMSE); SSIM {}x{} Gaussian window, sigma "
       "1.5, K1 0.01, K2 0.03, no padding{}\n",

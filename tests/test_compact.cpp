@@ -196,13 +196,14 @@ TEST(Compact, OlderVersionsWithTheCompactFlagsAreRefused) {
     return false;
   };
   std::vector<std::uint8_t> bytes = serialize_model(m);
-  EXPECT_EQ(bytes[8], 5);
+  EXPECT_EQ(bytes[8], kModelFormatVersion);
   EXPECT_EQ(bytes[12], 2 | kPredictedMeanBrdf);
   EXPECT_TRUE(refused(bytes, 4, 6));
   EXPECT_TRUE(refused(bytes, 3, 2));
   EXPECT_TRUE(refused(bytes, 5, 4));
   EXPECT_TRUE(refused(bytes, 5, 5));
   EXPECT_TRUE(refused(bytes, 5, 2));  // version 5 writes the predicted mean BRDF only
+  EXPECT_TRUE(refused(bytes, 5, 8));  // the texture models' flag came with version 6
   // Every truncated prefix is an error.
   const std::vector<std::uint8_t> good = serialize_model(m);
   for (std::size_t n = 0; n < good.size(); ++n)
@@ -227,8 +228,8 @@ void expect_predictions(const BtfModel& m, const float (&expected)[2][3]) {
 // The golden compact files are a mixture of `btfgmm generate --material knit --size 4 --seed 7
 // --lights rings:0/1,40/6 --views rings:0/1,40/3`, then `btfgmm fit -M 6 --iterations 5`.
 // Version 4's (its mean BRDF in steps of 1/8, each code less the one before along the views)
-// reads, predicts what it predicted, keeps its steps, and written again (version 5, the mean
-// BRDF predicted) reads back to the same model, bit for bit.
+// reads, predicts what it predicted, keeps its steps, and written again (the current version,
+// the mean BRDF predicted) reads back to the same model, bit for bit.
 TEST(Compact, GoldenVersion4FileKeepsDecoding) {
   const std::vector<std::uint8_t> bytes = golden_bytes("golden_v4_gm.btfgmm");
   const BtfModel m = deserialize_model(bytes, "golden_v4_gm.btfgmm");
@@ -239,7 +240,7 @@ TEST(Compact, GoldenVersion4FileKeepsDecoding) {
   expect_predictions(
       m, {{152.589996f, 141.733643f, 124.623924f}, {119.546730f, 110.895248f, 96.906540f}});
   const std::vector<std::uint8_t> v5 = serialize_model(m);
-  EXPECT_EQ(v5[8], 5);
+  EXPECT_EQ(v5[8], kModelFormatVersion);
   const BtfModel again = deserialize_model(v5, "v5");
   EXPECT_EQ(again.mean_brdf, m.mean_brdf);
   EXPECT_EQ(again.mixture.weight, m.mixture.weight);
@@ -249,14 +250,19 @@ TEST(Compact, GoldenVersion4FileKeepsDecoding) {
 }
 
 // Version 5's (the mean BRDF in steps of a level, predicted) reads, writes back to the same
-// bytes, and predicts what it predicted.
+// bytes but the version (version 6 changed the texture models' payloads alone), and predicts
+// what it predicted.
 TEST(Compact, GoldenVersion5FileKeepsDecoding) {
   const std::vector<std::uint8_t> bytes = golden_bytes("golden_v5_gm.btfgmm");
   const BtfModel m = deserialize_model(bytes, "golden_v5_gm.btfgmm");
   EXPECT_EQ(m.precision, Precision::kCompact);
   EXPECT_EQ(m.mixture.size(), 6u);
   EXPECT_EQ(m.compact_steps.mean_brdf, 1.0);
-  EXPECT_EQ(serialize_model(m), bytes);
+  std::vector<std::uint8_t> current = bytes;
+  current[8] = std::uint8_t(kModelFormatVersion);
+  const auto crc = std::uint32_t(crc32(0L, current.data(), uInt(current.size() - 4)));
+  std::memcpy(current.data() + current.size() - 4, &crc, 4);
+  EXPECT_EQ(serialize_model(m), current);
   expect_predictions(
       m, {{154.550751f, 143.599014f, 126.079483f}, {117.158264f, 108.385704f, 94.593475f}});
 }

@@ -113,7 +113,13 @@ nlohmann::json texture_json(const TextureStatistics& t) {
           {"deviation_difference", t.deviation_difference},
           {"histogram_distance", t.histogram_distance},
           {"autocorrelation_difference", t.autocorrelation_difference},
-          {"autocorrelation_max_lag", t.max_lag}};
+          {"autocorrelation_max_lag", t.max_lag},
+          {"worst_mean_difference", t.worst_mean_difference},
+          {"deviation_ratio_range", {t.lowest_deviation_ratio, t.highest_deviation_ratio}},
+          {"worst_autocorrelation_difference", t.worst_autocorrelation_difference},
+          {"worst_streak_ratio", t.worst_streak_ratio},
+          {"saturated_data", t.saturated_data},
+          {"saturated_model", t.saturated_model}};
 }
 
 nlohmann::json comparison_json(const std::string& btf, const ModelComparison& c, DataMatch match) {

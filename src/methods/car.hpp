@@ -77,6 +77,31 @@ Field synthesise_car(const CarModel& m, int width, int height, std::uint64_t see
 constexpr double kMaxVarianceGain = 1.25;
 double stabilise_car(CarModel& m, double data_trace, int width, int height);
 
+// The CAR model's equations solved exactly on the width x height torus (the synthesis of
+// files from format version 6 on, docs/METHODS.md): with the model's transfer matrix
+//   A(w) = I - sum_s gamma_s exp(i w.s)   (gamma_s the d x d block of offset s),
+// Y(k) = A(w_k)^-1 DFT(L eps)(k) at every frequency but k = 0, which is the model's mean.
+// Every pixel, the seam included, satisfies Y_r = gamma X_r + L eps_r with the neighbours
+// wrapping: no raster order, no warm-up, nothing that can pile up along an edge. Needs A(w)
+// invertible on the grid: stabilise_car_spectrum makes its smallest singular value at least
+// kMinCarSpectrum everywhere. Deterministic from `seed`.
+Field synthesise_car_spectral(const CarModel& m, int width, int height, std::uint64_t seed);
+
+// The smallest singular value of A(w) over a grid of kSpectrumGrid x kSpectrumGrid
+// frequencies and the frequencies next to 0 of every side up to 1024 (where a model near its
+// unit root has its gain).
+double smallest_car_spectrum(const CarModel& m);
+constexpr double kMinCarSpectrum = 0.01;  // an amplitude gain of at most 100 over white noise
+
+// gamma scaled by the largest factor in [0, 1] (found by bisection, to 2^-16) that makes
+// smallest_car_spectrum >= kMinCarSpectrum where the estimate falls below it, then
+// Sigma scaled so that the exact torus field of width x height (the training image's size)
+// has the covariance trace `data_trace` (its variance computed from the spectrum, no
+// sampling). Returns the factor applied to gamma (1: none). The stability test of
+// synthesise_car_spectral: an estimate that passes it cannot make a field larger than the
+// data's variance by more than the gain bound at any size.
+double stabilise_car_spectrum(CarModel& m, double data_trace, int width, int height);
+
 // Gaussian white noise from splitmix64 (Box-Muller), n values, deterministic from `seed`.
 std::vector<double> white_noise(std::size_t n, std::uint64_t seed);
 

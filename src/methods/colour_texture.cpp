@@ -117,15 +117,22 @@ Field synthesise_pyramid(int levels, int width, int height, std::uint64_t seed, 
   return collapse(fields);
 }
 
+Field synthesise_car_as(const CarModel& m, int w, int h, std::uint64_t seed,
+                        CarSynthesis synthesis) {
+  return synthesis == CarSynthesis::kSpectral ? synthesise_car_spectral(m, w, h, seed)
+                                              : synthesise_car(m, w, h, seed);
+}
+
 // 3D CAR: one model of the RGB vector per pyramid level (level 0 the finest).
 class Car3dTexture final : public ColourTexture {
  public:
-  explicit Car3dTexture(std::vector<CarModel> levels) : levels_(std::move(levels)) {}
+  Car3dTexture(std::vector<CarModel> levels, CarSynthesis synthesis)
+      : levels_(std::move(levels)), synthesis_(synthesis) {}
   Field synthesise(int width, int height, std::uint64_t seed) const override {
-    return synthesise_pyramid(int(levels_.size()), width, height, seed,
-                              [this](int k, int w, int h, std::uint64_t s) {
-                                return synthesise_car(levels_[std::size_t(k)], w, h, s);
-                              });
+    return synthesise_pyramid(
+        int(levels_.size()), width, height, seed, [this](int k, int w, int h, std::uint64_t s) {
+          return synthesise_car_as(levels_[std::size_t(k)], w, h, s, synthesis_);
+        });
   }
   std::size_t parameter_count() const override {
     std::size_t n = 0;
@@ -142,6 +149,7 @@ class Car3dTexture final : public ColourTexture {
 
  private:
   std::vector<CarModel> levels_;
+  CarSynthesis synthesis_;
 };
 
 // 2D CAR and GMRF: a Karhunen-Loeve transform and a model per band and pyramid level (level-
@@ -149,7 +157,9 @@ class Car3dTexture final : public ColourTexture {
 template <class Model>
 class BandTexture final : public ColourTexture {
  public:
-  BandTexture(KarhunenLoeve kl, std::vector<Model> bands) : kl_(kl), bands_(std::move(bands)) {}
+  BandTexture(KarhunenLoeve kl, std::vector<Model> bands,
+              CarSynthesis synthesis = CarSynthesis::kSpectral)
+      : kl_(kl), bands_(std::move(bands)), synthesis_(synthesis) {}
   Field synthesise(int width, int height, std::uint64_t seed) const override {
     return from_bands(synthesise_pyramid(levels(), width, height, seed,
                                          [this](int k, int w, int h, std::uint64_t s) {
@@ -174,17 +184,18 @@ class BandTexture final : public ColourTexture {
   Field synthesise_level(int k, int width, int height, std::uint64_t seed) const {
     Field bands(width, height, 3);
     for (int b = 0; b < 3; ++b) {
-      const Field f =
-          synthesise_band(bands_[std::size_t(3 * k + b)], width, height, seed + std::uint64_t(b));
+      const Field f = synthesise_band(bands_[std::size_t(3 * k + b)], width, height,
+                                      seed + std::uint64_t(b), synthesis_);
       for (std::size_t i = 0; i < f.pixels(); ++i)
         bands.values[i * 3 + std::size_t(b)] = f.values[i];
     }
     return bands;
   }
-  static Field synthesise_band(const CarModel& m, int w, int h, std::uint64_t s) {
-    return synthesise_car(m, w, h, s);
+  static Field synthesise_band(const CarModel& m, int w, int h, std::uint64_t s,
+                               CarSynthesis synthesis) {
+    return synthesise_car_as(m, w, h, s, synthesis);
   }
-  static Field synthesise_band(const GmrfModel& m, int w, int h, std::uint64_t s) {
+  static Field synthesise_band(const GmrfModel& m, int w, int h, std::uint64_t s, CarSynthesis) {
     return synthesise_gmrf(m, w, h, s);
   }
   static void put_band(ByteWriter& w, const CarModel& m) { put_car(w, m); }
@@ -192,6 +203,7 @@ class BandTexture final : public ColourTexture {
 
   KarhunenLoeve kl_;
   std::vector<Model> bands_;
+  CarSynthesis synthesis_;
 };
 
 template <>
@@ -264,20 +276,29 @@ Field from_bands(const Field& bands, const KarhunenLoeve& kl) {
 
 namespace {
 
-std::unique_ptr<ColourTexture> fit_car3d_texture(const Field& rgb, int max_order, int levels) {
+// The stability test and variance match of the synthesis the model will have.
+void stabilise(CarModel& m, const Field& data, CarSynthesis synthesis) {
+  if (synthesis == CarSynthesis::kSpectral)
+    stabilise_car_spectrum(m, covariance_trace(data), data.width, data.height);
+  else
+    stabilise_car(m, covariance_trace(data), data.width, data.height);
+}
+
+std::unique_ptr<ColourTexture> fit_car3d_texture(const Field& rgb, int max_order, int levels,
+                                                 CarSynthesis synthesis) {
   std::vector<CarModel> models;
   for (const Field& level : laplacian_pyramid(rgb, levels)) {
     models.push_back(select_car(level, max_order));
-    stabilise_car(models.back(), covariance_trace(level), level.width, level.height);
+    stabilise(models.back(), level, synthesis);
   }
-  return std::make_unique<Car3dTexture>(std::move(models));
+  return std::make_unique<Car3dTexture>(std::move(models), synthesis);
 }
 
 }  // namespace
 
 std::unique_ptr<ColourTexture> fit_colour_texture(TextureKind kind, const Field& rgb, int max_order,
-                                                  int levels) {
-  if (kind == TextureKind::kCar3d) return fit_car3d_texture(rgb, max_order, levels);
+                                                  int levels, CarSynthesis synthesis) {
+  if (kind == TextureKind::kCar3d) return fit_car3d_texture(rgb, max_order, levels, synthesis);
   const KarhunenLoeve kl = karhunen_loeve(rgb);
   const Field bands = to_bands(rgb, kl);
   const std::vector<Field> pyramid = laplacian_pyramid(bands, levels);
@@ -287,9 +308,9 @@ std::unique_ptr<ColourTexture> fit_colour_texture(TextureKind kind, const Field&
       for (int b = 0; b < 3; ++b) {
         const Field band = channel_of(level, b);
         models.push_back(select_car(band, max_order));
-        stabilise_car(models.back(), covariance_trace(band), band.width, band.height);
+        stabilise(models.back(), band, synthesis);
       }
-    return std::make_unique<BandTexture<CarModel>>(kl, std::move(models));
+    return std::make_unique<BandTexture<CarModel>>(kl, std::move(models), synthesis);
   }
   std::vector<GmrfModel> models;
   for (const Field& level : pyramid)
@@ -297,18 +318,19 @@ std::unique_ptr<ColourTexture> fit_colour_texture(TextureKind kind, const Field&
   return std::make_unique<BandTexture<GmrfModel>>(kl, std::move(models));
 }
 
-std::unique_ptr<ColourTexture> get_colour_texture(TextureKind kind, int levels, ByteReader& r) {
+std::unique_ptr<ColourTexture> get_colour_texture(TextureKind kind, int levels, ByteReader& r,
+                                                  CarSynthesis synthesis) {
   const std::size_t n = std::size_t(levels);
   if (kind == TextureKind::kCar3d) {
     std::vector<CarModel> models;
     for (std::size_t k = 0; k < n; ++k) models.push_back(get_car(r, 3));
-    return std::make_unique<Car3dTexture>(std::move(models));
+    return std::make_unique<Car3dTexture>(std::move(models), synthesis);
   }
   const KarhunenLoeve kl = get_kl(r);
   if (kind == TextureKind::kCar2d) {
     std::vector<CarModel> models;
     for (std::size_t b = 0; b < 3 * n; ++b) models.push_back(get_car(r, 1));
-    return std::make_unique<BandTexture<CarModel>>(kl, std::move(models));
+    return std::make_unique<BandTexture<CarModel>>(kl, std::move(models), synthesis);
   }
   std::vector<GmrfModel> models;
   for (std::size_t b = 0; b < 3 * n; ++b) models.push_back(get_gmrf(r));

@@ -19,6 +19,11 @@ namespace btfgmm::detail {
 
 enum class TextureKind : std::uint8_t { kCar3d = 0, kCar2d = 1, kGmrf = 2 };
 
+// How a CAR model is synthesised: in raster order with warm-up passes (synthesise_car, the
+// files before format version 6, which keep synthesising as they did) or solved exactly on
+// the torus (synthesise_car_spectral, every fit since). GMRF takes its FFT synthesis either way.
+enum class CarSynthesis : std::uint8_t { kRaster, kSpectral };
+
 // The Karhunen-Loeve transform of RGB: band b = basis row b . (rgb - mean), the rows the
 // eigenvectors of the 3 x 3 colour covariance, largest eigenvalue first.
 struct KarhunenLoeve {
@@ -47,9 +52,12 @@ class ColourTexture {
 // field itself), a model per level (2D CAR, GMRF: per band and level; the Karhunen-Loeve
 // transform is the field's), neighbourhoods chosen up to `max_order`. The field's sides must
 // hold the levels (max_levels).
+// CAR models are stabilised for `synthesis` (stabilise_car_spectrum or stabilise_car).
 std::unique_ptr<ColourTexture> fit_colour_texture(TextureKind kind, const Field& rgb, int max_order,
-                                                  int levels = 1);
+                                                  int levels = 1,
+                                                  CarSynthesis synthesis = CarSynthesis::kSpectral);
 // Reads what put wrote for a model of `levels` levels; r.fail() on anything out of range.
-std::unique_ptr<ColourTexture> get_colour_texture(TextureKind kind, int levels, ByteReader& r);
+std::unique_ptr<ColourTexture> get_colour_texture(TextureKind kind, int levels, ByteReader& r,
+                                                  CarSynthesis synthesis);
 
 }  // namespace btfgmm::detail

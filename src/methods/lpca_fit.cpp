@@ -5,8 +5,8 @@
 #include <cassert>
 #include <limits>
 
-#include "core/random.hpp"
 #include "core/eigen_dense.hpp"
+#include "core/random.hpp"
 #include "methods/pca_methods.hpp"
 
 namespace btfgmm::detail {

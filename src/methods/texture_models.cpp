@@ -10,8 +10,10 @@
 
 #include "btfgmm/core/error.hpp"
 #include "btfgmm/core/limits.hpp"
+#include "btfgmm/model/model_file.hpp"
 #include "methods/colour_texture.hpp"
 #include "methods/factors.hpp"
+#include "methods/image_moments.hpp"
 #include "methods/pyramid.hpp"
 #include "model/conditional.hpp"
 
@@ -62,14 +64,16 @@ float mean_lit(std::span<const float> normals, const Direction& light) {
 TextureModel::TextureModel(std::string_view method, ModelFrame frame,
                            std::vector<std::uint8_t> labels, std::vector<Subspace> subspaces,
                            std::vector<float> heights, std::uint64_t seed,
-                           FactorEncoding range_encoding)
+                           FactorEncoding range_encoding,
+                           std::shared_ptr<const detail::ImageMoments> moments)
     : method_(method),
       frame_(std::move(frame)),
       labels_(std::move(labels)),
       subspaces_(std::move(subspaces)),
       heights_(std::move(heights)),
       seed_(seed),
-      range_encoding_(range_encoding) {
+      range_encoding_(range_encoding),
+      moments_(std::move(moments)) {
   normals_ = normals_of(heights_, frame_.width, frame_.height);
   for (const Direction& l : frame_.lights) mean_lit_.push_back(mean_lit(normals_, l));
   synthesise_tiles();
@@ -82,6 +86,27 @@ void TextureModel::synthesise_tiles() {
     const detail::Field f =
         subspaces_[std::size_t(k)]->synthesise(frame_.width, frame_.height, seed_);
     tiles_[std::size_t(k)].assign(f.values.begin(), f.values.end());
+    if (moments_)
+      detail::match_marginal(tiles_[std::size_t(k)].data(), frame_.pixels(),
+                             moments_->marginals[std::size_t(k)]);
+  }
+  measure_shaded_tiles();
+}
+
+void TextureModel::measure_shaded_tiles() {
+  shaded_moments_.clear();
+  if (!moments_) return;
+  const std::size_t nl = frame_.lights.size(), pixels = frame_.pixels();
+  shaded_moments_.assign(subspaces_.size() * nl * 6, 0.0f);
+#pragma omp parallel for schedule(dynamic, 1)
+  for (std::ptrdiff_t l = 0; l < std::ptrdiff_t(nl); ++l) {
+    const std::vector<float> shade = shading(frame_.lights[std::size_t(l)]);
+    std::vector<float> img(pixels * 3);
+    for (std::size_t k = 0; k < subspaces_.size(); ++k) {
+      for (std::size_t i = 0; i < img.size(); ++i) img[i] = tiles_[k][i] * shade[i / 3];
+      float* m = &shaded_moments_[(k * nl + std::size_t(l)) * 6];
+      detail::measure_moments(img.data(), pixels, m, m + 3);
+    }
   }
 }
 
@@ -96,13 +121,21 @@ std::string TextureModel::size_text() const {
 
 std::uint64_t TextureModel::parameter_count() const {
   std::uint64_t n = labels_.size() + heights_.size();
+  if (moments_) n += labels_.size() * 6 + subspaces_.size() * 3 * detail::kQuantiles;
   for (const Subspace& s : subspaces_) n += s->parameter_count();
   return n;
 }
 
+std::size_t TextureModel::image_of(const Direction& light, const Direction& view) const {
+  return nearest(frame_.lights, light) * frame_.views.size() + nearest(frame_.views, view);
+}
+
 std::size_t TextureModel::label_of(const Direction& light, const Direction& view) const {
-  const std::size_t l = nearest(frame_.lights, light), v = nearest(frame_.views, view);
-  return labels_[l * frame_.views.size() + v];
+  return labels_[image_of(light, view)];
+}
+
+std::uint32_t TextureModel::file_flags() const {
+  return moments_ ? kImageMoments : 0;
 }
 
 float TextureModel::shading(std::size_t pixel, const Direction& light) const {
@@ -129,7 +162,8 @@ void TextureModel::predict(std::span<const Query> queries, std::span<float> rgb)
     const Query& q = queries[i];
     detail::check_direction(q.light, "light");
     detail::check_direction(q.view, "view");
-    const std::vector<float>& tile = tiles_[label_of(q.light, q.view)];
+    const std::size_t image = image_of(q.light, q.view), k = labels_[image];
+    const std::vector<float>& tile = tiles_[k];
     const double fx = std::floor(q.x), fy = std::floor(q.y);
     const double wx = q.x - fx, wy = q.y - fy;
     for (std::size_t c = 0; c < 3; ++c) rgb[i * 3 + c] = 0.0f;
@@ -142,6 +176,17 @@ void TextureModel::predict(std::span<const Query> queries, std::span<float> rgb)
       const std::size_t p = std::size_t(y * w + x);
       const float b = float(weight) * shading(p, q.light);
       for (std::size_t c = 0; c < 3; ++c) rgb[i * 3 + c] += tile[p * 3 + c] * b;
+    }
+    if (moments_) {  // the image's moments from the shaded tile's
+      const float* have =
+          &shaded_moments_[(k * frame_.lights.size() + image / frame_.views.size()) * 6];
+      for (std::size_t c = 0; c < 3; ++c) {
+        const float scale =
+            have[3 + c] > 0.0f ? moments_->deviation[image * 3 + c] / have[3 + c] : 0.0f;
+        rgb[i * 3 + c] = moments_->mean[image * 3 + c] + (rgb[i * 3 + c] - have[c]) * scale;
+        if (frame_.format != SampleFormat::kHdr)
+          rgb[i * 3 + c] = detail::within_levels(rgb[i * 3 + c]);
+      }
     }
   }
 }
@@ -171,6 +216,13 @@ Btf TextureModel::decode(const DirectionSet& lights, const DirectionSet& views, 
           const float b = shade[std::size_t((y % th) * tw + x % tw)];
           for (std::size_t c = 0; c < 3; ++c) img[p * 3 + c] = s[p * 3 + c] * b;
         }
+      if (moments_) {
+        const std::size_t image = image_of(light, views[vi]);
+        const std::size_t n = std::size_t(width) * std::size_t(height);
+        detail::match_moments(img, n, &moments_->mean[image * 3], &moments_->deviation[image * 3]);
+        if (frame_.format != SampleFormat::kHdr)
+          for (std::size_t v = 0; v < n * 3; ++v) img[v] = detail::within_levels(img[v]);
+      }
     }
   }
   return out;
@@ -186,6 +238,7 @@ const std::vector<float>& TextureModel::synthesised(std::size_t subspace, int wi
   if (f.empty()) {
     const detail::Field field = subspaces_[subspace]->synthesise(width, height, seed_);
     f.assign(field.values.begin(), field.values.end());
+    if (moments_) detail::match_marginal(f.data(), field.pixels(), moments_->marginals[subspace]);
   }
   return f;
 }
@@ -199,6 +252,10 @@ std::vector<std::uint8_t> TextureModel::payload() const {
   for (std::uint8_t l : labels_) w.put<std::uint8_t>(l);
   detail::put_factors(w, heights_, heights_.size(), range_encoding_);
   for (const Subspace& s : subspaces_) s->put(w);
+  if (moments_) {
+    detail::put_image_moments(w, *moments_);
+    for (const std::vector<float>& z : moments_->marginals) detail::put_marginal(w, z);
+  }
   return std::move(w.bytes);
 }
 
@@ -224,11 +281,20 @@ std::vector<std::pair<std::string, std::string>> TextureModel::details() const {
        fmt::format("{} (a label for each of the {} images)", subspaces_.size(), labels_.size())},
       {"pyramid levels", pyramid_text()},
       {"neighbourhood", subspaces_.empty() ? "" : subspaces_[0]->neighbourhood() + ", subspace 1"},
-      {"values", fmt::format("{} labels + {} range map + {} model parameters", labels_.size(),
-                             heights_.size(), models)},
+      {"values", fmt::format("{} labels + {} range map + {} model parameters{}", labels_.size(),
+                             heights_.size(), models,
+                             moments_ ? fmt::format(" + {} image moments + {} marginal quantiles",
+                                                    labels_.size() * 6,
+                                                    subspaces_.size() * 3 * detail::kQuantiles)
+                                      : "")},
       {"range map", fmt::format("{} x {}, heights {:.2f} to {:.2f} pixels ({})", frame_.width,
                                 frame_.height, *lo, *hi, to_string(range_encoding_))},
       {"seed", std::to_string(seed_)},
+      {"image moments",
+       moments_ ? fmt::format("mean and deviation per channel of each image, steps {:.3g} and "
+                              "{:.3g} (a byte each)",
+                              moments_->mean_step, moments_->deviation_step)
+                : "none (a file before format version 6: each image its subspace's colour)"},
   };
 }
 

@@ -8,9 +8,11 @@
 #include "btfgmm/core/error.hpp"
 #include "btfgmm/methods/range_map.hpp"
 #include "btfgmm/methods/texture_models.hpp"
+#include "btfgmm/model/model_file.hpp"
 #include "methods/car.hpp"
 #include "methods/colour_texture.hpp"
 #include "methods/factors.hpp"
+#include "methods/image_moments.hpp"
 #include "methods/pyramid.hpp"
 #include "methods/subspaces.hpp"
 
@@ -81,9 +83,9 @@ std::vector<TextureModel::Subspace> fit_subspaces(TextureKind kind, const Btf& t
       stopped = true;
       continue;
     }
-    out[std::size_t(k)] =
-        detail::fit_colour_texture(kind, image_field(tile, sub.representatives[std::size_t(k)]),
-                                   detail::kMaxCausalOrder, pyramid_levels(tile, s));
+    out[std::size_t(k)] = detail::fit_colour_texture(
+        kind, image_field(tile, sub.representatives[std::size_t(k)]), detail::kMaxCausalOrder,
+        pyramid_levels(tile, s), detail::CarSynthesis::kSpectral);
     const std::size_t n = ++done;
     if (s.progress) {
 #pragma omp critical(btfgmm_texture_progress)
@@ -99,8 +101,13 @@ std::unique_ptr<Representation> read_texture_model(TextureKind kind,
                                                    std::span<const std::uint8_t> payload,
                                                    std::uint32_t flags, const std::string& name) {
   detail::ByteReader r(payload, "model file", name, "fit the model again");
-  if (flags != 0)
-    r.fail(fmt::format("{} takes no flags, the file has {:#x}", method_name(kind), flags));
+  if (flags != 0 && flags != kImageMoments)
+    r.fail(fmt::format("{} takes flags 0 or {:#x}, the file has {:#x}", method_name(kind),
+                       kImageMoments, flags));
+  // A file with the image moments (version 6 on) synthesises its CAR models on the torus;
+  // one before them in raster order, as it always did.
+  const bool moments = flags == kImageMoments;
+  const auto synthesis = moments ? detail::CarSynthesis::kSpectral : detail::CarSynthesis::kRaster;
   ModelFrame frame = detail::get_frame(r);
   const auto seed = r.get<std::uint64_t>("seed");
   const int levels = r.get<std::uint8_t>("pyramid levels");
@@ -116,10 +123,17 @@ std::unique_ptr<Representation> read_texture_model(TextureKind kind,
   const auto encoding = FactorEncoding(payload[at]);
   std::vector<TextureModel::Subspace> subspaces;
   for (std::size_t k = 0; k < c; ++k)
-    subspaces.push_back(detail::get_colour_texture(kind, levels, r));
+    subspaces.push_back(detail::get_colour_texture(kind, levels, r, synthesis));
+  std::shared_ptr<const detail::ImageMoments> image_moments;
+  if (moments) {
+    detail::ImageMoments m = detail::get_image_moments(r, labels.size());
+    for (std::size_t k = 0; k < c; ++k) m.marginals.push_back(detail::get_marginal(r));
+    image_moments = std::make_shared<detail::ImageMoments>(std::move(m));
+  }
   if (r.remaining() != 0) r.fail(fmt::format("{} bytes follow the model", r.remaining()));
   return std::make_unique<TextureModel>(method_name(kind), std::move(frame), std::move(labels),
-                                        std::move(subspaces), std::move(heights), seed, encoding);
+                                        std::move(subspaces), std::move(heights), seed, encoding,
+                                        std::move(image_moments));
 }
 
 std::unique_ptr<Representation> fit_texture_model(TextureKind kind, const Btf& tile,
@@ -131,10 +145,14 @@ std::unique_ptr<Representation> fit_texture_model(TextureKind kind, const Btf& t
   const detail::Subspaces sub =
       detail::cluster_images(tile, s.clusters ? s.clusters : kDefaultSubspaces, s.seed);
   std::vector<TextureModel::Subspace> models = fit_subspaces(kind, tile, sub, s);
+  auto moments = std::make_shared<detail::ImageMoments>(detail::measure_image_moments(tile));
+  for (std::size_t representative : sub.representatives)
+    moments->marginals.push_back(detail::measure_marginal(
+        tile.data().data() + representative * tile.image_floats(), tile.image_floats() / 3));
   const TextureModel fitted(method_name(kind), ModelFrame::of(tile), sub.labels, std::move(models),
-                            std::move(heights), s.seed, s.encoding);
+                            std::move(heights), s.seed, s.encoding, std::move(moments));
   // The model as its file holds it (parameters as 32-bit floats): memory and file agree.
-  return read_texture_model(kind, fitted.payload(), 0, "the fitted model");
+  return read_texture_model(kind, fitted.payload(), fitted.file_flags(), "the fitted model");
 }
 
 }  // namespace

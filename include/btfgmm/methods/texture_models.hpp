@@ -8,13 +8,16 @@
 //   3. Each representative is modelled (methods/colour_texture.hpp): 3D CAR on the RGB vector,
 //      or 2D CAR / GMRF on its Karhunen-Loeve bands, on each level of its Gaussian-Laplacian
 //      pyramid (methods/pyramid.hpp; --levels K, default 3 or what the tile holds).
-//   4. Any (light, view): the subspace of the nearest measured light and view, synthesised
+//   4. Each image's mean and deviation per channel (methods/image_moments.hpp), a byte each.
+//   5. Any (light, view): the subspace of the nearest measured light and view, synthesised
 //      from the seed, times the range map's bump shading 1 + kRelief (s - 1), s = max(0, n.l) /
-//      mean_xy max(0, n.l) (the mean taken under the nearest measured light).
+//      mean_xy max(0, n.l) (the mean taken under the nearest measured light), then moved and
+//      scaled per channel to the nearest measured image's mean and deviation.
 // Payload (after the model file's method tag): the frame (methods/factors.hpp), u64 seed,
 // u8 pyramid levels K (1 in files written before the pyramid), u32 c, ni*nv u8 labels, the
 // range map as factors (1 row of W*H heights, f16 unless --precision says otherwise), then c
-// subspace models of K levels each (docs/FORMAT.md).
+// subspace models of K levels each, then (file flag kImageMoments, format version 6 on) the
+// image moments (docs/FORMAT.md). A file without them synthesises as it always did.
 #pragma once
 
 #include <cstdint>
@@ -30,7 +33,8 @@
 namespace btfgmm {
 namespace detail {
 class ColourTexture;
-}
+struct ImageMoments;
+}  // namespace detail
 
 class TextureModel final : public Representation {
  public:
@@ -41,15 +45,17 @@ class TextureModel final : public Representation {
   using Subspace = std::shared_ptr<const detail::ColourTexture>;
   // `method`: "3d-car", "2d-car" or "gmrf"; `labels` (ni*nv, light-major) index
   // `subspaces`; `heights` W*H (the range map).
+  // `moments`: each image's (ni*nv) mean and deviation, or none (a file before version 6).
   TextureModel(std::string_view method, ModelFrame frame, std::vector<std::uint8_t> labels,
                std::vector<Subspace> subspaces, std::vector<float> heights, std::uint64_t seed,
-               FactorEncoding range_encoding = FactorEncoding::kF16);
+               FactorEncoding range_encoding = FactorEncoding::kF16,
+               std::shared_ptr<const detail::ImageMoments> moments = nullptr);
 
   std::string_view method() const override { return method_; }
   const ModelFrame& frame() const override { return frame_; }
   std::string size_text() const override;
   double size_order() const override { return double(parameter_count()); }
-  // Labels (ni*nv) + range map (W*H) + every subspace model's values.
+  // Labels (ni*nv) + range map (W*H) + every subspace model's values + 6 per image moments.
   std::uint64_t parameter_count() const override;
 
   void predict(std::span<const Query> queries, std::span<float> rgb) const override;
@@ -62,6 +68,7 @@ class TextureModel final : public Representation {
   // are 32-bit floats.
   FactorEncoding encoding() const override { return range_encoding_; }
   bool synthesises() const override { return true; }
+  std::uint32_t file_flags() const override;  // kImageMoments where they are stored
   void set_synthesis_seed(std::uint64_t seed, std::string_view option) override;
 
   std::uint64_t seed() const { return seed_; }
@@ -80,6 +87,11 @@ class TextureModel final : public Representation {
   // The subspaces' syntheses at the tile's size (what predict reads), made from seed_.
   void synthesise_tiles();
   std::string pyramid_text() const;  // for details()
+  // The image nearest (light, view), light-major.
+  std::size_t image_of(const Direction& light, const Direction& view) const;
+  // The mean and deviation per channel of each subspace's tile-sized synthesis under each
+  // measured light's shading (subspace-major, 6 each): what predict scales from.
+  void measure_shaded_tiles();
 
   std::string method_;
   ModelFrame frame_;
@@ -89,6 +101,8 @@ class TextureModel final : public Representation {
   std::uint64_t seed_;
   FactorEncoding range_encoding_;
   std::vector<std::vector<float>> tiles_;
+  std::shared_ptr<const detail::ImageMoments> moments_;
+  std::vector<float> shaded_moments_;
   // decode's syntheses at the last size asked, each made when first needed (decode is called
   // a light at a time by the command): guarded by cache_lock_.
   struct Synthesised {

@@ -18,10 +18,13 @@
 
 namespace btfgmm {
 
-constexpr std::uint32_t kModelFormatVersion = 5;
+constexpr std::uint32_t kModelFormatVersion = 6;
 // The mixture's flags: its Precision, and with the compact encoding (version 5 on) this bit,
 // the mean BRDF's codes predicted from their neighbours (docs/FORMAT.md).
 constexpr std::uint32_t kPredictedMeanBrdf = 4;
+// The texture models' flag (version 6 on): each image's mean and deviation stored, the CAR
+// models solved on the torus (docs/FORMAT.md).
+constexpr std::uint32_t kImageMoments = 8;
 // The flags a mixture's file is written with.
 std::uint32_t mixture_file_flags(const BtfModel& model);
 // The Gaussian mixture's method tag.
