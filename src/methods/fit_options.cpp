@@ -37,7 +37,8 @@ std::unique_ptr<Representation> fit_mixture(const FitOptions& o, const std::stri
   observer.iteration = progress.iteration;
   if (progress.progress)
     observer.refinement = [&progress](const GradientProgress& g) {
-      progress.progress(double(g.step) / double(std::max(1, g.steps)), "refinement");
+      progress.progress(g.steps > 0 ? double(g.step) / g.steps : g.elapsed / g.seconds,
+                        "refinement");
     };
   FitOutcome fit = fit_in_memory(r, observer);
   if (fit.interrupted) return nullptr;
@@ -81,17 +82,19 @@ FitRequest mixture_fit_request(const FitOptions& o, const std::string& input,
   r.config.objective =
       parse_objective(o.objective.empty() ? "prediction" : o.objective, "--objective");
   set_refine_steps(r.config, o.refine_steps);
+  if (o.refine_seconds > 0) r.config.refinement_seconds = o.refine_seconds;
   r.precision = mixture_precision(o.precision);
   return r;
 }
 
 MethodSettings method_settings(const FitOptions& o, const MethodInfo& method) {
-  if (o.epsilon || !o.objective.empty() || o.refine_steps != 0)
+  if (o.epsilon || !o.objective.empty() || o.refine_steps != 0 || o.refine_seconds != 0)
     throw Error(Error::Kind::kArgument,
                 fmt::format("{} cannot apply to --method {}: it belongs to the Gaussian "
                             "mixture's fit (--method gm) only; leave it out",
                             o.epsilon             ? "--epsilon"
                             : o.refine_steps != 0 ? "--refine-steps"
+                            : o.refine_seconds != 0 ? "--refine-seconds"
                                                   : "--objective",
                             method.name));
   if (o.levels != 0 && !method.pyramid)

@@ -29,9 +29,11 @@ struct FitConfig {
   // prediction's error (refine_for_prediction, model/refine.hpp; em.stop ends its steps
   // early). `btfgmm fit` asks for the latter unless --objective likelihood.
   FitObjective objective = FitObjective::kLikelihood;
-  // kPrediction: the refinement's Adam steps; 0: as many as the fit affords beside EM
-  // (affordable_gradient).
+  // kPrediction: the refinement's Adam steps; 0: until the validation error converges
+  // (GradientConfig).
   int refinement_steps = 0;
+  // kPrediction: the refinement's bound on its time, seconds (GradientConfig::seconds).
+  double refinement_seconds = kDefaultRefineSeconds;
 };
 
 // Mean BRDF, samples, initialisation and EM on a BTF tile. With `resume`, EM continues from
