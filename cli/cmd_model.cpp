@@ -202,8 +202,8 @@ void print_refinement(const btfgmm::GradientProgress& p, double& printed_at) {
   const bool last = p.steps > 0 && p.step == p.steps;
   if (p.step > 1 && !last && p.elapsed < printed_at + 5.0) return;
   printed_at = p.elapsed;
-  const std::string bound = p.steps > 0 ? fmt::format("step {}/{}", p.step, p.steps)
-                                        : fmt::format("step {}", p.step);
+  const std::string bound =
+      p.steps > 0 ? fmt::format("step {}/{}", p.step, p.steps) : fmt::format("step {}", p.step);
   fmt::print(stderr,
              "refining for the prediction: epoch {:>3} {:<12} validation RMSE {:.3f} levels "
              "(lowest {:.3f})  training RMSE {:.3f}  {} of at most {}\n",
@@ -252,11 +252,14 @@ void print_written(const std::string& out, const btfgmm::FitOutcome& fit, const 
                "{:.3f} levels after EM, {:.3f} after the colour refit, {:.3f} in the model (on "
                "{} held-out samples); training RMSE {:.3f}\n",
                r->steps, r->epochs,
-               r->timed_out ? ", the time bound" : r->stopped ? ", stopped" : "",
+               r->timed_out ? ", the time bound"
+               : r->stopped ? ", stopped"
+                            : "",
                human_seconds(r->seconds), btfgmm::prediction_rmse(r->error_em, r->samples),
                btfgmm::prediction_rmse(r->error_colour, r->samples),
                btfgmm::prediction_rmse(r->error_final, r->samples), r->samples, r->training_rmse);
-  }}
+  }
+}
 
 // ---- fit --method: any other method ------------------------------------------------------
 
@@ -389,8 +392,8 @@ void run_fit_within_budget(const FitOptions& o) {
                 "--budget and --ratio both set the budget; give one of them");
   refuse_options(o,
                  {"--method", "--components", "--clusters", "--degree", "--precision",
-                  "--objective", "--refine-steps", "--refine-seconds", "--epsilon", "--levels", "--checkpoint",
-                  "--checkpoint-every", "--resume", "--continue", "--log"},
+                  "--objective", "--refine-steps", "--refine-seconds", "--epsilon", "--levels",
+                  "--checkpoint", "--checkpoint-every", "--resume", "--continue", "--log"},
                  fmt::format("with {}: it chooses the method and size itself (each method's "
                              "ladder of sizes, stored as sweep stores them)",
                              budget));
@@ -544,8 +547,10 @@ void register_fit(CLI::App& app, Commands& commands) {
       ->check(CLI::Range(1, btfgmm::kMaxRefineSteps));
   f->add_option("--refine-seconds", fit->refine_seconds,
                 fmt::format("gm, --objective prediction: the most seconds the refinement takes "
-                            "(default {:g}); the lowest held-out error met is kept",
-                            btfgmm::kDefaultRefineSeconds))
+                            "(default M / {:g}: {:g} at M = 600); the lowest held-out error met "
+                            "is kept",
+                            1.0 / btfgmm::kDefaultRefineSecondsPerComponent,
+                            btfgmm::default_refine_seconds(600)))
       ->check(CLI::Range(1.0, btfgmm::kMaxRefineSeconds));
   f->add_option("--threads", fit->threads,
                 "Threads (0: all cores; the model does not depend "

@@ -96,7 +96,7 @@ std::vector<std::pair<std::string, std::string>> settings_record(const FitReques
       {"processes", fmt::to_string(r.processes ? r.processes->size() : 1)}};
   if (r.config.refinement_steps > 0)  // --refine-steps, for --continue to refine alike
     s.emplace_back("refine steps", fmt::to_string(r.config.refinement_steps));
-  if (r.config.objective == FitObjective::kPrediction)
+  if (r.config.refinement_seconds > 0)  // --refine-seconds, for --continue alike
     s.emplace_back("refine seconds", fmt::format("{:g}", r.config.refinement_seconds));
   return s;
 }
@@ -263,7 +263,8 @@ BtfModel fit_samples(const SampleSet& samples, const FitTile& tile, const FitCon
   if (config.objective == FitObjective::kPrediction) {
     GradientConfig gradient;
     gradient.steps = config.refinement_steps;
-    gradient.seconds = config.refinement_seconds;
+    gradient.seconds = config.refinement_seconds > 0 ? config.refinement_seconds
+                                                     : default_refine_seconds(config.components);
     gradient.seed = config.seed;
     gradient.progress = refinement;
     gradient.stop = config.em.stop;
@@ -314,12 +315,12 @@ int recorded_refine_steps(const Provenance& p) {
   return 0;
 }
 
-// The --refine-seconds a model's provenance records (the default where none).
+// The --refine-seconds a model's provenance records (0, the default, where none).
 double recorded_refine_seconds(const Provenance& p) {
   for (const auto& [name, value] : p.fit.settings)
     if (name == "refine seconds")
       return std::clamp(std::atof(value.c_str()), 1.0, kMaxRefineSeconds);
-  return kDefaultRefineSeconds;
+  return 0.0;
 }
 
 }  // namespace

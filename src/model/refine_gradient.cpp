@@ -526,6 +526,7 @@ void gradient_epochs(const SampleSet& samples, ProductMixture& mix, int threads,
     }
   }
   out.training_rmse = prediction_rmse(at.train_error, at.train_samples);
+  out.gradient_seconds = at.elapsed();
   mix = std::move(best);
 }
 

@@ -34,7 +34,7 @@ struct FitOptions {
                           // (default), "f32", "f16"
   std::string objective;  // gm: "prediction" (default) or "likelihood" (the paper's EM alone)
   int refine_steps = 0;   // gm, prediction: the refinement's Adam steps (0: its stopping rule)
-  double refine_seconds = 0.0;  // gm, prediction: its bound on time (0: kDefaultRefineSeconds)
+  double refine_seconds = 0.0;  // gm, prediction: its bound on time (0: default_refine_seconds)
 };
 
 // config.refinement_steps = steps (0: as many as the fit affords). Throws Error(kArgument)

@@ -32,8 +32,9 @@ struct FitConfig {
   // kPrediction: the refinement's Adam steps; 0: until the validation error converges
   // (GradientConfig).
   int refinement_steps = 0;
-  // kPrediction: the refinement's bound on its time, seconds (GradientConfig::seconds).
-  double refinement_seconds = kDefaultRefineSeconds;
+  // kPrediction: the refinement's bound on its time, seconds (GradientConfig::seconds); 0:
+  // default_refine_seconds(components).
+  double refinement_seconds = 0.0;
 };
 
 // Mean BRDF, samples, initialisation and EM on a BTF tile. With `resume`, EM continues from

@@ -3,6 +3,7 @@
 // gating weights EM found (docs/ALGORITHM.md, "Fitting for the prediction").
 #pragma once
 
+#include <algorithm>
 #include <array>
 #include <atomic>
 #include <cstddef>
@@ -121,10 +122,14 @@ struct GradientProgress {
 };
 using GradientCallback = std::function<void(const GradientProgress&)>;
 
-// The refinement's default bound on its time (fit --refine-seconds), in seconds: with EM's 40
+// The refinement's default bound on its time (fit --refine-seconds), in seconds: M / 6 (100 s
+// at M = 600), so that any M gets about as many passes over the data; with EM's 40
 // iterations it keeps the default fit of a 25 x 25 tile at M = 600 within 5 minutes on two
 // cores (docs/ALGORITHM.md).
-constexpr double kDefaultRefineSeconds = 100.0;
+constexpr double kDefaultRefineSecondsPerComponent = 1.0 / 6.0;
+inline double default_refine_seconds(std::size_t components) {
+  return std::max(10.0, double(components) * kDefaultRefineSecondsPerComponent);
+}
 constexpr double kMaxRefineSeconds = 7.0 * 24 * 3600;
 constexpr int kMaxRefineSteps = 100000;  // the most a fit may ask for (fit --refine-steps)
 
@@ -141,7 +146,7 @@ constexpr int kMaxRefineSteps = 100000;  // the most a fit may ask for (fit --re
 struct GradientConfig {
   bool gradient = true;
   int steps = 0;
-  double seconds = kDefaultRefineSeconds;
+  double seconds = default_refine_seconds(600);
   int max_epochs = 1000;
   int patience = 4;
   int plateaus = 3;
@@ -179,7 +184,8 @@ struct PredictionRefinement {
   std::size_t samples = 0;     // validation samples, on which the errors are
   std::size_t training_samples = 0;
   std::size_t batch_samples = 0;  // training samples of a minibatch (about)
-  double seconds = 0.0;
+  double seconds = 0.0;           // the whole refinement's
+  double gradient_seconds = 0.0;  // its epochs' (steps and validations)
 };
 
 // The mixture EM fitted, refined for the prediction's error (docs/ALGORITHM.md, "Fitting for
