@@ -199,7 +199,7 @@ double memory_in_use() {
 // seconds at most: the validation RMSE (held-out samples) of the parameters reached and the
 // lowest met, the training RMSE beside it.
 void print_refinement(const btfgmm::GradientProgress& p, double& printed_at) {
-  const bool last = p.steps > 0 && p.step == p.steps;
+  const bool last = p.fraction >= 1.0;
   if (p.step > 1 && !last && p.elapsed < printed_at + 5.0) return;
   printed_at = p.elapsed;
   const std::string bound =

@@ -37,8 +37,7 @@ std::unique_ptr<Representation> fit_mixture(const FitOptions& o, const std::stri
   observer.iteration = progress.iteration;
   if (progress.progress)
     observer.refinement = [&progress](const GradientProgress& g) {
-      progress.progress(g.steps > 0 ? double(g.step) / g.steps : g.elapsed / g.seconds,
-                        "refinement");
+      progress.progress(g.fraction, "refinement");
     };
   FitOutcome fit = fit_in_memory(r, observer);
   if (fit.interrupted) return nullptr;
@@ -92,10 +91,10 @@ MethodSettings method_settings(const FitOptions& o, const MethodInfo& method) {
     throw Error(Error::Kind::kArgument,
                 fmt::format("{} cannot apply to --method {}: it belongs to the Gaussian "
                             "mixture's fit (--method gm) only; leave it out",
-                            o.epsilon             ? "--epsilon"
-                            : o.refine_steps != 0 ? "--refine-steps"
+                            o.epsilon               ? "--epsilon"
+                            : o.refine_steps != 0   ? "--refine-steps"
                             : o.refine_seconds != 0 ? "--refine-seconds"
-                                                  : "--objective",
+                                                    : "--objective",
                             method.name));
   if (o.levels != 0 && !method.pyramid)
     throw Error(Error::Kind::kArgument,

@@ -445,6 +445,23 @@ struct Epochs {
   }
 };
 
+// The progress after a validation (`last`: after the last step, fraction 1).
+void report(const GradientConfig& config, const Epochs& at, const Convergence& rule,
+            const PredictionRefinement& out, double rmse, bool last) {
+  if (!config.progress) return;
+  const double fraction =
+      last             ? 1.0
+      : out.steps == 0 ? 0.0
+      : config.steps > 0
+          ? double(out.steps) / config.steps
+          : std::max({at.elapsed() / config.seconds, double(out.epochs - 1) / config.max_epochs,
+                      double(rule.plateaus) / std::max(1, config.plateaus)});
+  config.progress({out.epochs, out.steps, config.steps, rmse,
+                   prediction_rmse(out.error_final, out.samples),
+                   prediction_rmse(at.train_error, at.train_samples), at.elapsed(), config.seconds,
+                   std::min(fraction, 1.0)});
+}
+
 // Validation after a step: the lowest error's mixture kept in `best`; the progress reported.
 // Returns whether the rule has converged.
 bool validate(const SampleSet& samples, const ProductMixture& mix, int threads,
@@ -458,11 +475,7 @@ bool validate(const SampleSet& samples, const ProductMixture& mix, int threads,
     out.error_final = e;
   }
   const bool converged = rule.converged(e, config);
-  if (config.progress)
-    config.progress({out.epochs, out.steps, config.steps, prediction_rmse(e, out.samples),
-                     prediction_rmse(out.error_final, out.samples),
-                     prediction_rmse(at.train_error, at.train_samples), at.elapsed(),
-                     config.seconds});
+  report(config, at, rule, out, prediction_rmse(e, out.samples), false);
   return converged && config.steps == 0;
 }
 
@@ -501,6 +514,8 @@ void gradient_epochs(const SampleSet& samples, ProductMixture& mix, int threads,
   Epochs at;
   std::mt19937_64 draw(config.seed);
   std::vector<std::size_t> order(batches);
+  const double start_rmse = prediction_rmse(out.error_final, out.samples);
+  report(config, at, rule, out, start_rmse, false);
   bool done = false;
   for (int epoch = 1; !done && epoch <= config.max_epochs; ++epoch) {
     out.epochs = epoch;
@@ -527,6 +542,7 @@ void gradient_epochs(const SampleSet& samples, ProductMixture& mix, int threads,
   }
   out.training_rmse = prediction_rmse(at.train_error, at.train_samples);
   out.gradient_seconds = at.elapsed();
+  report(config, at, rule, out, prediction_rmse(out.error_final, out.samples), true);
   mix = std::move(best);
 }
 

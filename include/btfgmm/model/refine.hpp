@@ -119,6 +119,9 @@ struct GradientProgress {
   int epoch = 1, step = 0, steps = 0;  // steps: those asked for (GradientConfig::steps), or 0
   double validation_rmse = 0.0, best_validation_rmse = 0.0, training_rmse = 0.0;
   double elapsed = 0.0, seconds = 0.0;
+  // How far along, 0 before the first step to 1 after the last: of the steps asked for, or the
+  // most of the time bound's, the epochs' and the stopping rule's halvings' shares.
+  double fraction = 0.0;
 };
 using GradientCallback = std::function<void(const GradientProgress&)>;
 
@@ -155,7 +158,7 @@ struct GradientConfig {
   double colour_rate = 2.0;
   std::size_t batch = 16384;
   std::uint64_t seed = 1;
-  GradientCallback progress;  // after every validation (may be empty)
+  GradientCallback progress;  // before the first step, after every validation, after the last
   // Checked after every step: when set, the steps end there, the parameters of the lowest
   // validation error met are kept and closed by the colour refit as after the last step
   // (PredictionRefinement::stopped). Null: never.
