@@ -131,7 +131,7 @@ using GradientCallback = std::function<void(const GradientProgress&)>;
 // cores (docs/ALGORITHM.md).
 constexpr double kDefaultRefineSecondsPerComponent = 1.0 / 6.0;
 inline double default_refine_seconds(std::size_t components) {
-  return std::max(10.0, double(components) * kDefaultRefineSecondsPerComponent);
+  return std::max(30.0, double(components) * kDefaultRefineSecondsPerComponent);
 }
 constexpr double kMaxRefineSeconds = 7.0 * 24 * 3600;
 constexpr int kMaxRefineSteps = 100000;  // the most a fit may ask for (fit --refine-steps)
