@@ -53,6 +53,7 @@ btfgmm::FitOptions library_options(const FitArguments& o) {
   f.precision = o.precision;
   f.objective = o.objective;
   f.refine_steps = o.refine_steps;
+  f.refine_seconds = o.refine_seconds;
   return f;
 }
 
@@ -266,10 +267,18 @@ void register_fit_command(CLI::App& app, Commands& commands) {
                     "exactly)");
   f->add_option("--refine-steps", fit->refine_steps,
                 methods_of("refine_steps") +
-                    ", --objective prediction: Adam steps of the refinement (default: as many as "
-                    "keep the fit within twice EM's time, 408 at the paper's setting; more keep "
-                    "paying, docs/ALGORITHM.md)")
+                    ", --objective prediction: exactly this many Adam steps of the refinement "
+                    "(default: until the error on the held-out samples stops falling, "
+                    "docs/ALGORITHM.md)")
       ->check(table_range<int>("refine_steps"));
+  f->add_option("--refine-seconds", fit->refine_seconds,
+                methods_of("refine_seconds") +
+                    fmt::format(", --objective prediction: the most seconds the refinement "
+                                "takes (default M / {:g}: {:g} at M = 600); the lowest held-out "
+                                "error met is kept",
+                                1.0 / btfgmm::kDefaultRefineSecondsPerComponent,
+                                btfgmm::default_refine_seconds(600)))
+      ->check(table_range<double>("refine_seconds"));
   f->add_option("--threads", fit->threads,
                 "Threads (0: all cores; the model does not depend "
                 "on it)")

@@ -20,7 +20,8 @@ struct FitArguments {
   std::size_t components = 0, clusters = 0, degree = 0;  // 0: the method's default
   int iterations = 0;                                    // 0: the method's default
   int levels = 0;                                        // 0: the method's default
-  int refine_steps = 0;                                  // 0: as many as the fit affords
+  int refine_steps = 0;                                  // 0: until converged
+  double refine_seconds = 0.0;                           // 0: the default bound
   double epsilon = 0.0;
   std::uint64_t seed = 1;
   int threads = 0;

@@ -84,6 +84,7 @@ btfgmm::FitRequest fit_request(const FitArguments& o) {
   if (r.resume && o.given.count("--epsilon")) r.config.em.epsilon = o.epsilon;
   // Resumed or continued: checked against the objective (a continuation's is its model's).
   if (o.given.count("--refine-steps")) btfgmm::set_refine_steps(r.config, o.refine_steps);
+  if (o.refine_seconds > 0) r.config.refinement_seconds = o.refine_seconds;
   r.checkpoint_every = o.checkpoint_every;
   r.config.em.threads = o.threads;
   r.config.em.stop = &g_stop;
@@ -113,15 +114,20 @@ double memory_in_use() {
   return resident * double(sysconf(_SC_PAGESIZE));
 }
 
-// The fit for the prediction's gradient steps: the first, every tenth of them and the last,
-// with the RMSE (levels) on the steps' subsample and the time left.
-void print_refinement(const btfgmm::GradientProgress& p, Clock::time_point since) {
-  const int every = std::max(1, (p.steps + 9) / 10);
-  if (p.step % every != 0 && p.step != p.steps) return;
-  const double seconds = seconds_since(since);
-  const double left = p.step > 0 ? seconds / p.step * (p.steps - p.step) : 0.0;
-  fmt::print(stderr, "refining for the prediction: step {:>4}/{}  RMSE {:.2f} levels  {}  ETA {}\n",
-             p.step, p.steps, p.rmse, human_seconds(seconds), human_seconds(left));
+// The refinement for the prediction after a validation, the first and then one every 5
+// seconds at most: the validation RMSE (held-out samples) of the parameters reached and the
+// lowest met, the training RMSE beside it.
+void print_refinement(const btfgmm::GradientProgress& p, double& printed_at) {
+  const bool last = p.fraction >= 1.0;
+  if (p.step > 1 && !last && p.elapsed < printed_at + 5.0) return;
+  printed_at = p.elapsed;
+  const std::string bound =
+      p.steps > 0 ? fmt::format("step {}/{}", p.step, p.steps) : fmt::format("step {}", p.step);
+  fmt::print(stderr,
+             "refining for the prediction: epoch {:>3} {:<12} validation RMSE {:.3f} levels "
+             "(lowest {:.3f})  training RMSE {:.3f}  {} of at most {}\n",
+             p.epoch, bound, p.validation_rmse, p.best_validation_rmse, p.training_rmse,
+             human_seconds(p.elapsed), human_seconds(p.seconds));
 }
 
 // One EM iteration; the time left is estimated from this run's iterations. The first
@@ -161,11 +167,16 @@ void print_written(const std::string& out, const btfgmm::FitOutcome& fit, const 
              model.compression_ratio_file(fit.file_bytes), time);
   if (const auto& r = fit.refinement) {
     fmt::print(stderr,
-               "refined for the prediction in {} Adam steps: RMSE {:.2f} levels after EM, {:.2f} "
-               "after the colour refit, {:.2f} in the model (on {} samples)\n",
-               r->steps, btfgmm::prediction_rmse(r->error_em, r->samples),
+               "refined for the prediction in {} Adam steps ({} epochs{}, {}): validation RMSE "
+               "{:.3f} levels after EM, {:.3f} after the colour refit, {:.3f} in the model (on "
+               "{} held-out samples); training RMSE {:.3f}\n",
+               r->steps, r->epochs,
+               r->timed_out ? ", the time bound"
+               : r->stopped ? ", stopped"
+                            : "",
+               human_seconds(r->seconds), btfgmm::prediction_rmse(r->error_em, r->samples),
                btfgmm::prediction_rmse(r->error_colour, r->samples),
-               btfgmm::prediction_rmse(r->error_final, r->samples), r->samples);
+               btfgmm::prediction_rmse(r->error_final, r->samples), r->samples, r->training_rmse);
   }
 }
 
@@ -220,11 +231,9 @@ void run_mixture_fit(const FitArguments& options,
     if (!o.quiet) print_iteration(p, start);
     if (log) log->add({p.log_likelihood, p.seconds, std::uint32_t(p.components)});
   };
-  std::optional<Clock::time_point> refinement_start;
+  double printed_at = 0.0;
   observer.refinement = [&](const btfgmm::GradientProgress& p) {
-    if (o.quiet) return;
-    if (!refinement_start) refinement_start = Clock::now();
-    print_refinement(p, *refinement_start);
+    if (!o.quiet) print_refinement(p, printed_at);
   };
   const btfgmm::FitOutcome fit = btfgmm::run_fit(r, observer);
   stop_on_signals.reset();
@@ -240,9 +249,9 @@ void run_mixture_fit(const FitArguments& options,
   if (fit.refinement && fit.refinement->stopped) {
     // The model is written, but with fewer steps than the fit affords: said even with --quiet.
     fmt::print(stderr,
-               "interrupted during the refinement for the prediction after step {} of {}: {} "
-               "holds the lowest error met so far, and is complete{}\n",
-               fit.refinement->steps, fit.refinement->steps_planned, r.output,
+               "interrupted during the refinement for the prediction after step {}: {} holds "
+               "the lowest validation error met so far, and is complete{}\n",
+               fit.refinement->steps, r.output,
                fit.checkpoint.empty()
                    ? std::string("; fit again for the whole refinement")
                    : fmt::format("; EM's state is in {}\nrefine again without EM with: btfgmm fit "

@@ -235,9 +235,12 @@ TEST_F(BadInput, ComponentsZeroNegativeHuge) {
   for (const char* m : {"0", "-5", "1000000000"})
     expect_fit_refused(p("btf"), std::string("--components ") + m, {"--components", m});
   expect_fit_refused(p("btf"), "-M 0", {"--components", "0"});
-  // In range for the option, more than the 8 x 8 x 30 = 1920 samples of the data.
-  expect_fit_refused(p("btf"), "--components 5000",
+  // In range for the option, more than the 8 x 8 x 30 = 1920 samples of the data: EM's
+  // refusal, and, for the default objective, the refinement's, before it.
+  expect_fit_refused(p("btf"), "--components 5000 --objective likelihood",
                      {"components = 5000", "more than the 1920 samples", "give fewer components"});
+  expect_fit_refused(p("btf"), "--components 5000",
+                     {"--components 5000", "1920 samples support at most 28 components"});
 }
 
 TEST_F(BadInput, ComponentsBeyondMemory) {
@@ -252,7 +255,8 @@ TEST_F(BadInput, ComponentsBeyondMemory) {
   for (std::size_t i = 0; i < b.data().size(); ++i) b.data()[i] = float(i % 251);
   btfgmm::write_utia(b, p("btf"));
   const CliRun r =
-      run("fit " + p("btf") + " --components 100000 -o " + p("m.btfgmm"), "ulimit -v 2097152; ");
+      run("fit " + p("btf") + " --components 100000 --objective likelihood -o " + p("m.btfgmm"),
+          "ulimit -v 2097152; ");
   expect_refused(r, {"M = 100000", "64x64 tile", "more than the 2.0 GiB this machine has",
                      "give fewer components (--components) or a smaller tile (--tile)"});
   EXPECT_FALSE(fs::exists(p("m.btfgmm")));

@@ -67,15 +67,19 @@ TEST_F(Cli, GenerateInfoFitInfoEvalDecode) {
   EXPECT_NE(r.out.find("iteration   3/3"), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("ETA"), std::string::npos) << r.out;
   // The refinement for the prediction: its steps, then what it gained.
-  EXPECT_NE(r.out.find("refining for the prediction: step   10/10"), std::string::npos) << r.out;
-  EXPECT_NE(r.out.find("refined for the prediction in 10 Adam steps: RMSE "), std::string::npos)
+  EXPECT_NE(r.out.find("refining for the prediction: epoch   1 step 1"), std::string::npos)
       << r.out;
+  EXPECT_NE(r.out.find("validation RMSE "), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("training RMSE "), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("refined for the prediction in "), std::string::npos) << r.out;
   r = run("fit " + p("btf") +
           " --tile 0,0,6,6 -M 5 --iterations 3 --seed 2 --refine-steps 14 "
           "-o " +
           p("longer.btfgmm"));
   ASSERT_EQ(r.status, 0) << r.out;
   EXPECT_NE(r.out.find("refined for the prediction in 14 Adam steps"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("refining for the prediction: epoch  14 step 14/14"), std::string::npos)
+      << r.out;
   r = run("info --json " + p("m.btfgmm"));
   ASSERT_EQ(r.status, 0) << r.out;
   j = nlohmann::json::parse(r.out);
@@ -137,9 +141,15 @@ TEST_F(Cli, ErrorsNameTheProblemAndExitNonZero) {
   EXPECT_EQ(r.status, 1);
   EXPECT_NE(r.out.find("tile"), std::string::npos) << r.out;
   EXPECT_FALSE(fs::exists(p("m.btfgmm")));
-  r = run("fit " + p("btf") + " --tile 0,0,2,2 -M 300 -o " + p("m.btfgmm"));
+  r = run("fit " + p("btf") + " --tile 0,0,2,2 -M 300 --objective likelihood -o " + p("m.btfgmm"));
   EXPECT_EQ(r.status, 1) << r.out;
   EXPECT_NE(r.out.find("more than"), std::string::npos) << r.out;
+  // For the prediction (the default), more components than the tile's samples support are
+  // refused before EM, with the most it supports.
+  r = run("fit " + p("btf") + " --tile 0,0,2,2 -M 300 -o " + p("m.btfgmm"));
+  EXPECT_EQ(r.status, 1) << r.out;
+  EXPECT_NE(r.out.find("samples support at most 3 components"), std::string::npos) << r.out;
+  EXPECT_FALSE(fs::exists(p("m.btfgmm")));
 
   // A truncated model file, and a PNG given as a model.
   r = run("fit " + p("btf") + " -M 3 --iterations 1 -q -o " + p("m.btfgmm"));

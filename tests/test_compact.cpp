@@ -295,6 +295,45 @@ TEST(Refine, ColourRefitNeverIncreasesThePredictionError) {
   }
 }
 
+// The validation RMSE the refinement reports is the RMSE of the model's prediction (predict(),
+// as decoded) against the data at the held-out samples (validation_sample), counted here
+// independently of the refinement's passes; and it is below EM's.
+TEST(Refine, ValidationRmseIsTheMeasuredRmseOfTheHeldOutSamples) {
+  const Btf tile = knit_tile(8, 5);
+  const SampleSet s = make_sample_set(tile);
+  BtfModel m = small_fit(12);
+  GradientConfig g;
+  g.steps = 40;
+  const PredictionRefinement r = refine_for_prediction(s, m.mixture, 2, g);
+  const std::size_t nl = tile.lights().size(), nv = tile.views().size();
+  std::vector<Query> q;
+  std::vector<std::array<std::size_t, 4>> at;  // l, v, x, y
+  for (std::size_t l = 0; l < nl; ++l)
+    for (std::size_t v = 0; v < nv; ++v)
+      for (int y = 0; y < tile.height(); ++y)
+        for (int x = 0; x < tile.width(); ++x)
+          if (validation_sample(std::size_t(y * tile.width() + x), l * nv + v, nl * nv)) {
+            q.push_back({double(x), double(y), tile.lights()[l], tile.views()[v]});
+            at.push_back({l, v, std::size_t(x), std::size_t(y)});
+          }
+  ASSERT_EQ(q.size(), r.samples);
+  std::vector<float> rgb(q.size() * 3);
+  predict(m, q, rgb);
+  double sse = 0.0;
+  for (std::size_t i = 0; i < q.size(); ++i)
+    for (int c = 0; c < 3; ++c) {
+      const double d = double(rgb[i * 3 + std::size_t(c)]) -
+                       double(tile.at(at[i][0], at[i][1], int(at[i][2]), int(at[i][3]), c));
+      sse += d * d;
+    }
+  const double measured = std::sqrt(sse / double(3 * q.size()));
+  const double reported = btfgmm::prediction_rmse(r.error_final, r.samples);
+  std::printf("validation RMSE reported %.5f, measured %.5f levels (EM %.5f)\n", reported, measured,
+              btfgmm::prediction_rmse(r.error_em, r.samples));
+  EXPECT_NEAR(reported, measured, 1e-3 * measured);
+  EXPECT_LT(reported, btfgmm::prediction_rmse(r.error_em, r.samples));
+}
+
 // fit_model with the prediction objective: the same EM (its likelihood log is the paper's
 // fit's), then a lower prediction error; likelihood reproduces EM alone exactly.
 TEST(Refine, PredictionObjectiveStartsFromThePapersFit) {

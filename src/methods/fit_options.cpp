@@ -57,6 +57,11 @@ constexpr FitOptionRule kRules[] = {
      .routes = kMixtureRoutes,
      .min = 1,
      .max = kMaxRefineSteps},
+    {.field = "refine_seconds",
+     .methods = "gm",
+     .routes = kMixtureRoutes,
+     .min = 1,
+     .max = kMaxRefineSeconds},
     {.field = "epsilon", .methods = "gm", .routes = kMixtureRoutes, .min = 0, .max = 1},
     {.field = "iterations",
      .methods = "gm lpca plm-rf",
@@ -150,7 +155,7 @@ std::unique_ptr<Representation> fit_mixture(const FitOptions& o, const std::stri
   observer.iteration = progress.iteration;
   if (progress.progress)
     observer.refinement = [&progress](const GradientProgress& g) {
-      progress.progress(double(g.step) / double(std::max(1, g.steps)), "refinement");
+      progress.progress(g.fraction, "refinement");
     };
   FitOutcome fit = fit_in_memory(r, observer);
   if (fit.interrupted) return nullptr;
@@ -187,6 +192,7 @@ std::vector<std::string_view> given_fields(const FitOptions& o) {
       {"iterations", o.iterations != 0},      {"levels", o.levels != 0},
       {"epsilon", o.epsilon.has_value()},     {"precision", !o.precision.empty()},
       {"objective", !o.objective.empty()},    {"refine_steps", o.refine_steps != 0},
+      {"refine_seconds", o.refine_seconds != 0},
   };
   std::vector<std::string_view> out;
   for (const auto& [field, given] : set)
@@ -252,6 +258,7 @@ FitRequest mixture_fit_request(const FitOptions& o, const std::string& input,
   r.config.objective =
       parse_objective(o.objective.empty() ? "prediction" : o.objective, option_name("objective"));
   set_refine_steps(r.config, o.refine_steps);
+  if (o.refine_seconds > 0) r.config.refinement_seconds = o.refine_seconds;
   r.precision = mixture_precision(o.precision);
   return r;
 }

@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "btfgmm/model/mixture.hpp"
+#include "btfgmm/model/refine.hpp"
 #include "btfgmm/model/samples.hpp"
 #include "model/conditional.hpp"
 #include "model/mixture_internal.hpp"
@@ -58,9 +59,10 @@ void exponent_parts(const SampleSet& s, const ProductMixture& mix, Real* pixel, 
 class GridWeights {
  public:
   // `stride`: only the samples of pixel p and (light, view) pair l nv + v whose sum p + l nv + v
-  // it divides (kept()).
-  GridWeights(const SampleSet& s, const ProductMixture& mix, std::size_t stride = 1)
-      : s_(s), m_(mix.size()), stride_(stride) {
+  // it divides (kept()); `training`: of those, the ones not held out for validation.
+  GridWeights(const SampleSet& s, const ProductMixture& mix, std::size_t stride = 1,
+              bool training = false)
+      : s_(s), m_(mix.size()), stride_(stride), training_(training) {
     pixel_.resize(s.pixels() * m_);
     light_.resize(s.lights * m_);
     view_.resize(s.views * m_);
@@ -79,7 +81,9 @@ class GridWeights {
   // Whether sample (pixel p, (light, view) pair j = l nv + v) is in the stride's subsample:
   // (p + j) divisible by the stride, so every image keeps every stride-th pixel, and every
   // pixel every stride-th image.
-  bool kept(std::size_t p, std::size_t j) const { return (p + j) % stride_ == 0; }
+  bool kept(std::size_t p, std::size_t j) const {
+    return (p + j) % stride_ == 0 && !(training_ && validation_sample(p, j, s_.lights * s_.views));
+  }
 
   // Per-thread working space of visit_pixel.
   struct Scratch {
@@ -109,6 +113,55 @@ class GridWeights {
         w.index = s_.index(p, l, v);
         for (int c = 0; c < 3; ++c) w.residual[c] = s_.residual_of(p, l, v, c);
         visit(w);
+      }
+    }
+  }
+
+  // Calls visit(const SampleWeights&) for every sample (of the stride) of light l (one this
+  // process holds), pixels then views in increasing order.
+  template <class Visit>
+  void visit_light(std::size_t l, Scratch& sc, Visit&& visit) const {
+    SampleWeights& w = sc.w;
+    for (std::size_t p = 0; p < s_.pixels(); ++p) {
+      const double* a = &pixel_[p * m_];
+      const double* b = &light_[l * m_];
+      bool any = false;
+      for (std::size_t v = 0; v < s_.views && !any; ++v) any = kept(p, l * s_.views + v);
+      if (!any) continue;
+      for (std::size_t k = 0; k < m_; ++k) sc.pl[k] = a[k] + b[k];
+      for (std::size_t v = 0; v < s_.views; ++v) {
+        if (!kept(p, l * s_.views + v)) continue;
+        weights(sc.pl.data(), &view_[v * m_], sc.t.data(), w);
+        w.pixel = p;
+        w.light = l;
+        w.view = v;
+        w.index = s_.index(p, l, v);
+        for (int c = 0; c < 3; ++c) w.residual[c] = s_.residual_of(p, l, v, c);
+        visit(w);
+      }
+    }
+  }
+
+  // Sums over every sample (of the stride) of this process's lights with `threads` threads (0:
+  // all cores), light by light: visit(const SampleWeights&, acc) for every sample of a light
+  // (acc = make(), one per thread), then reduce(acc) for that light, in light order and one
+  // thread at a time (reduce adds acc into the totals and clears it). The same bit for bit
+  // with any number of threads, and, folded over processes (fold_over_processes), with any
+  // number of processes.
+  template <class Make, class Visit, class Reduce>
+  void reduce_over_lights(int threads, Make&& make, Visit&& visit, Reduce&& reduce) const {
+    const std::ptrdiff_t lights = std::ptrdiff_t(s_.held_lights());
+    const int n_threads = threads > 0 ? threads : omp_get_max_threads();
+#pragma omp parallel num_threads(n_threads)
+    {
+      auto acc = make();
+      Scratch sc(m_);
+#pragma omp for ordered schedule(dynamic, 1)
+      for (std::ptrdiff_t i = 0; i < lights; ++i) {
+        visit_light(s_.first_light + std::size_t(i), sc,
+                    [&](const SampleWeights& w) { visit(w, acc); });
+#pragma omp ordered
+        reduce(acc);
       }
     }
   }
@@ -166,6 +219,7 @@ class GridWeights {
 
   const SampleSet& s_;
   std::size_t m_, stride_;
+  bool training_;
   std::vector<double> pixel_, light_, view_;  // the exponents' parts, M a row
 };
 

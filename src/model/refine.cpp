@@ -6,6 +6,7 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 
 #include "btfgmm/core/error.hpp"
@@ -45,6 +46,7 @@ struct Accumulator {
   Eigen::MatrixXd gram, rhs, batch, colour;
   std::array<double, 3> energy{0, 0, 0};
   Eigen::Index rows = 0;
+  std::size_t samples = 0;
   explicit Accumulator(std::size_t m)
       : gram(Eigen::MatrixXd::Zero(Eigen::Index(m), Eigen::Index(m))),
         rhs(Eigen::MatrixXd::Zero(Eigen::Index(m), 3)),
@@ -71,33 +73,47 @@ struct Accumulator {
     gram.setZero();
     rhs.setZero();
     energy = {0, 0, 0};
+    samples = 0;
   }
 };
 
 }  // namespace
 
 ColourNormalEquations colour_normal_equations(const SampleSet& samples, const ProductMixture& mix,
-                                              int threads, std::size_t stride) {
+                                              int threads, std::size_t stride, bool training) {
   const std::size_t m = mix.size();
   ColourNormalEquations eq;
   eq.components = m;
-  eq.gram.assign(m * m, 0.0);
-  eq.rhs.assign(m * 3, 0.0);
-  const detail::GridWeights grid(samples, mix, std::max<std::size_t>(stride, 1));
-  eq.samples = grid.samples();
-  grid.reduce_in_chunks(
-      threads, [m] { return Accumulator(m); },
-      [](const detail::SampleWeights& s, Accumulator& acc) { acc.add(s); },
-      [&eq, m](Accumulator& acc) {
-        acc.flush();
-        for (std::size_t a = 0; a < m; ++a) {
-          for (std::size_t b = a; b < m; ++b)
-            eq.gram[a * m + b] += acc.gram(Eigen::Index(a), Eigen::Index(b));
-          for (int c = 0; c < 3; ++c) eq.rhs[a * 3 + std::size_t(c)] += acc.rhs(Eigen::Index(a), c);
-        }
-        for (int c = 0; c < 3; ++c) eq.energy[std::size_t(c)] += acc.energy[std::size_t(c)];
-        acc.clear();
+  const detail::GridWeights grid(samples, mix, std::max<std::size_t>(stride, 1), training);
+  // The totals as one vector: G's upper triangle (row-major, all M^2 places), b, e, the count.
+  const std::size_t at_rhs = m * m, at_energy = at_rhs + 3 * m, at_count = at_energy + 3;
+  std::size_t count = 0;
+  std::vector<double> total = detail::fold_over_processes(
+      samples.processes.get(), at_count + 1, [&](std::vector<double>& t) {
+        grid.reduce_over_lights(
+            threads, [m] { return Accumulator(m); },
+            [](const detail::SampleWeights& s, Accumulator& acc) {
+              acc.add(s);
+              ++acc.samples;
+            },
+            [&t, &count, m, at_rhs, at_energy](Accumulator& acc) {
+              acc.flush();
+              for (std::size_t a = 0; a < m; ++a) {
+                for (std::size_t b = a; b < m; ++b)
+                  t[a * m + b] += acc.gram(Eigen::Index(a), Eigen::Index(b));
+                for (std::size_t c = 0; c < 3; ++c)
+                  t[at_rhs + a * 3 + c] += acc.rhs(Eigen::Index(a), Eigen::Index(c));
+              }
+              for (std::size_t c = 0; c < 3; ++c) t[at_energy + c] += acc.energy[c];
+              count += acc.samples;
+              acc.clear();
+            });
+        t[at_count] += double(count);
       });
+  eq.gram.assign(total.begin(), total.begin() + std::ptrdiff_t(at_rhs));
+  eq.rhs.assign(total.begin() + std::ptrdiff_t(at_rhs), total.begin() + std::ptrdiff_t(at_energy));
+  for (std::size_t c = 0; c < 3; ++c) eq.energy[c] = total[at_energy + c];
+  eq.samples = std::size_t(total[at_count]);
   for (std::size_t a = 0; a < m; ++a)  // the lower triangle from the upper
     for (std::size_t b = a + 1; b < m; ++b) eq.gram[b * m + a] = eq.gram[a * m + b];
   return eq;
@@ -157,33 +173,66 @@ ColourRefit refit_colour_means(const ColourNormalEquations& eq, ProductMixture& 
   return out;
 }
 
-namespace {
-constexpr std::size_t kRefitSamples = 250000;
-}  // namespace
-
-GradientConfig affordable_gradient(std::size_t samples, int em_iterations) {
-  GradientConfig g;
-  // A pass takes samples / stride samples: steps x that = share x iterations x samples.
-  const double steps = std::round(kGradientWorkShare * double(std::max(em_iterations, 0)) *
-                                  double(detail::subsample_stride(samples, g.samples)));
-  g.steps = int(std::clamp(steps, double(kMinGradientSteps), double(kMaxGradientSteps)));
-  return g;
+bool validation_sample(std::size_t pixel, std::size_t pair, std::size_t pairs) {
+  return detail::mix_bits(std::uint64_t(pixel) * pairs + pair) % kValidationEvery == 0;
 }
+
+std::size_t supported_components(std::size_t samples) {
+  return samples * (kValidationEvery - 1) / kValidationEvery / kSamplesPerComponent;
+}
+
+namespace detail {
+
+bool any_process(Communicator* processes, bool mine) {
+  if (!processes || processes->size() == 1) return mine;
+  const std::uint8_t flag = mine ? 1 : 0;
+  for (const auto& r : all_gather_values<std::uint8_t>(*processes, std::span(&flag, 1)))
+    if (!r.empty() && r[0]) return true;
+  return false;
+}
+
+}  // namespace detail
+
+namespace {
+
+// About the samples the closed-form colour refit takes: 3 M unknowns against a quarter of a
+// million equations; the sums over every image of a large tile (M^2 / 2 products a sample)
+// would cost more than EM's iterations. The Adam epochs fit the colour means to every
+// training sample.
+constexpr std::size_t kRefitSamples = 250000;
+
+// The colour means of `mix` refitted on the training samples of the refit's subsample, kept
+// where they lower the validation error `error`; returns the validation error of `mix`.
+double refit_where_it_validates(const SampleSet& samples, ProductMixture& mix, int threads,
+                                double error) {
+  const std::size_t stride = detail::subsample_stride(samples.size(), kRefitSamples);
+  ProductMixture trial = mix;
+  refit_colour_means(colour_normal_equations(samples, trial, threads, stride, true), trial);
+  const detail::Selection validation{1, 0, detail::Selection::Part::kValidation};
+  const double after = detail::selection_error(samples, trial, threads, validation).first;
+  if (!(after < error)) return error;
+  mix = std::move(trial);
+  return after;
+}
+
+}  // namespace
 
 PredictionRefinement refine_for_prediction(const SampleSet& samples, ProductMixture& mix,
                                            int threads, const GradientConfig& gradient) {
+  const auto t0 = std::chrono::steady_clock::now();
   PredictionRefinement out;
-  // A systematic subsample of about kRefitSamples samples: the problem has 3 M unknowns, and
-  // the sums over every image of a large tile would cost more than EM's iterations.
-  const std::size_t stride = detail::subsample_stride(samples.size(), kRefitSamples);
-  const ColourNormalEquations eq = colour_normal_equations(samples, mix, threads, stride);
-  out.samples = eq.samples;
-  out.steps_planned = gradient.rounds * gradient.steps;
-  const ColourRefit colour = refit_colour_means(eq, mix);
-  out.error_em = colour.error_before;
-  out.error_colour = colour.error_after;
-  out.error_final =
-      detail::gradient_rounds(samples, mix, threads, stride, gradient, colour.error_after, out);
+  const detail::Selection validation{1, 0, detail::Selection::Part::kValidation};
+  const auto [em_error, held_out] = detail::selection_error(samples, mix, threads, validation);
+  out.samples = held_out;
+  out.error_em = em_error;
+  out.error_colour = refit_where_it_validates(samples, mix, threads, em_error);
+  out.error_final = out.error_colour;
+  out.steps_planned = gradient.steps;
+  if (gradient.gradient) {
+    detail::gradient_epochs(samples, mix, threads, gradient, out);
+    out.error_final = refit_where_it_validates(samples, mix, threads, out.error_final);
+  }
+  out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return out;
 }
 

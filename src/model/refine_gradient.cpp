@@ -5,9 +5,12 @@
 #include <omp.h>
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <cstdint>
 #include <limits>
+#include <numeric>
+#include <random>
 #include <type_traits>
 #include <vector>
 
@@ -29,26 +32,28 @@ Real exp_of(Real x) {
     return std::exp(x);
 }
 
-// One thread's sums over a chunk of pixels (GradientPass::kChunkPixels): g_im per light and
-// per view, dE/dmu_m,6+c (3 rows of M), dE/da_m and dE/dmu, dE/ds of x and y (5 rows of M,
-// from each pixel's own sum `pixel`), the error and the samples; `w` the weights of the sample
-// at hand.
+// One thread's sums over a light's samples: g_im per view, dE/dmu_m,6+c (3 rows of M), the
+// light's own g_im, dE/da_m and dE/dmu, dE/ds of x and y (5 rows of M: g_im times the pixel's
+// `rows`, d / sigma^2 and (d^2 / sigma^2 - 1) / 2 of x and y), the error and the samples; `w`
+// the weights of the sample at hand.
 template <class Real>
 struct PassSums {
-  std::vector<Real> light, view, colour, pixel;
-  std::vector<double> position;
+  std::vector<Real> view, colour, light, position, rows;
+  std::vector<std::size_t> taken;  // the views of the pixel and light at hand in the selection
   double error = 0.0;
   std::size_t samples = 0;
-  PassSums(std::size_t lights, std::size_t views, std::size_t m)
-      : light(lights * m),
-        view(views * m),
+  PassSums(std::size_t views, std::size_t m)
+      : view(views * m),
         colour(3 * m),
-        pixel(m),
+        light(m),
         position(5 * m),
-        w_storage_(m + kAlign / sizeof(Real)) {}
+        rows(4 * m),
+        w_storage_(m + kAlign / sizeof(Real)) {
+    taken.reserve(views);
+  }
   // The weights of the sample at hand, at an address aligned to kAlign bytes in every
   // thread: the vectorised sums over them then run in the same order whichever thread takes a
-  // chunk (a loop peeled to an alignment would otherwise depend on the buffer's address).
+  // light (a loop peeled to an alignment would otherwise depend on the buffer's address).
   Real* w() {
     const auto at = reinterpret_cast<std::uintptr_t>(w_storage_.data());
     return w_storage_.data() + ((kAlign - at % kAlign) % kAlign) / sizeof(Real);
@@ -59,55 +64,54 @@ struct PassSums {
   std::vector<Real> w_storage_;
 };
 
-// A gradient pass of the prediction's squared error (prediction_gradient, model/refine.hpp)
-// over the samples of a stride, its tables and sums kept from one pass to the next (the
-// Adam steps make one pass each). Every weight and per-chunk sum in `Real`, the totals in
-// double.
+// A pass of the prediction's squared error (prediction_gradient, model/refine.hpp) over the
+// samples of a selection (detail::Selection), with its gradient or the error alone; its tables
+// and sums kept from one pass to the next (the Adam steps make one pass each). Every weight
+// and per-light sum in `Real`; each light's sums in double, folded in light order over the
+// processes (detail::fold_over_processes): the same for any number of threads and processes.
 template <class Real>
 class GradientPass {
  public:
-  // Pixels a chunk holds: the chunks, and so the order of every sum, are the same for any
-  // number of threads.
-  static constexpr std::size_t kChunkPixels = 32;
-
-  GradientPass(const SampleSet& s, std::size_t m, int threads, std::size_t stride)
+  GradientPass(const SampleSet& s, std::size_t m, int threads)
       : s_(s),
         m_(m),
         threads_(threads > 0 ? threads : omp_get_max_threads()),
-        stride_(std::max<std::size_t>(stride, 1)),
         pixel_(s.pixels() * m),
         light_(s.lights * m),
         view_(s.views * m),
         colour_(3 * m),
-        position_(5 * m),
-        mean_(4 * m),
-        total_light_(s.lights * m),
-        total_view_(s.views * m),
-        total_colour_(3 * m),
-        sums_(std::size_t(threads_), PassSums<Real>(s.lights, s.views, m)) {}
+        mean_(2 * m),
+        inv_var_(2 * m),
+        periods_(detail::variable_periods({double(s.width), double(s.height)})),
+        sums_(std::size_t(threads_), PassSums<Real>(s.views, m)) {}
 
-  PredictionGradient operator()(const ProductMixture& mix) {
+  // The error (and, with `gradient`, the gradient) of `mix` over the samples of `selection`.
+  PredictionGradient operator()(const ProductMixture& mix, const detail::Selection& selection,
+                                bool gradient = true) {
     set_tables(mix);
-    sum_over_chunks();
-    return gradient(mix);
+    selection_ = selection;
+    gradient_ = gradient;
+    sum_over_lights();
+    return result(mix);
   }
 
  private:
+  // The places in a light's partial sums (and, but for the light's row, in the totals).
+  std::size_t at_colour() const { return s_.views * m_; }
+  std::size_t at_position() const { return at_colour() + 3 * m_; }
+  std::size_t at_light() const { return at_position() + 5 * m_; }
+  std::size_t partial_size() const { return gradient_ ? at_light() + m_ + 2 : 2; }
+  std::size_t total_size() const { return gradient_ ? at_light() + s_.lights * m_ + 2 : 2; }
+
   void set_tables(const ProductMixture& mix) {
     detail::exponent_parts(s_, mix, pixel_.data(), light_.data(), view_.data());
     for (std::size_t k = 0; k < m_; ++k) {
       for (std::size_t c = 0; c < 3; ++c) colour_[c * m_ + k] = Real(mix.mean[k][6 + c]);
       for (std::size_t n = 0; n < 2; ++n) {
-        mean_[n * m_ + k] = mix.mean[k][n];
-        mean_[(2 + n) * m_ + k] = mix.var[k][n];
+        mean_[n * m_ + k] = Real(mix.mean[k][n]);
+        inv_var_[n * m_ + k] = Real(1.0 / mix.var[k][n]);
       }
     }
-    std::fill(position_.begin(), position_.end(), 0.0);
-    std::fill(total_light_.begin(), total_light_.end(), 0.0);
-    std::fill(total_view_.begin(), total_view_.end(), 0.0);
-    std::fill(total_colour_.begin(), total_colour_.end(), 0.0);
-    error_ = 0.0;
-    samples_ = 0;
   }
 
   // One sample's part (Eq. 8-10): its weights W_m = softmax(t_m) over all M components, the
@@ -143,79 +147,115 @@ class GradientPass {
                e2 = Real(s_.residual_of(p, l, v, 2)) - y2;
     acc.error += double(e0) * double(e0) + double(e1) * double(e1) + double(e2) * double(e2);
     ++acc.samples;
+    if (!gradient_) return;
     const Real base = e0 * y0 + e1 * y1 + e2 * y2;
-    Real *pixel = acc.pixel.data(), *light = &acc.light[l * m], *view = &acc.view[v * m];
+    Real *light = acc.light.data(), *view = &acc.view[v * m];
     Real *c0 = &acc.colour[0], *c1 = &acc.colour[m], *c2 = &acc.colour[2 * m];
+    Real *a = &acc.position[0], *mx = &acc.position[m], *my = &acc.position[2 * m],
+         *sx = &acc.position[3 * m], *sy = &acc.position[4 * m];
+    const Real *rx = &acc.rows[0], *ry = &acc.rows[m], *qx = &acc.rows[2 * m],
+               *qy = &acc.rows[3 * m];
 #pragma omp simd
     for (std::size_t k = 0; k < m; ++k) {
       const Real w2 = Real(-2) * w[k];
       const Real g = w2 * (e0 * mu0[k] + e1 * mu1[k] + e2 * mu2[k] - base);
-      pixel[k] += g;
       light[k] += g;
       view[k] += g;
+      a[k] += g;
+      mx[k] += g * rx[k];
+      my[k] += g * ry[k];
+      sx[k] += g * qx[k];
+      sy[k] += g * qy[k];
       c0[k] += w2 * e0;
       c1[k] += w2 * e1;
       c2[k] += w2 * e2;
     }
   }
 
-  // Pixel p's samples of the stride (GridWeights::kept), then its sum of g_m as dE/da_m and,
-  // through the terms of x and y in t_m (Eq. 10), dE/dmu and dE/ds of x and y.
-  void add_pixel(std::size_t p, PassSums<Real>& acc) const {
-    std::fill(acc.pixel.begin(), acc.pixel.end(), Real(0));
-    const std::size_t first = s_.first_light * s_.views, end = s_.light_end() * s_.views;
-    for (std::size_t j = first + (stride_ - (p + first) % stride_) % stride_; j < end; j += stride_)
-      add_sample(p, j / s_.views, j % s_.views, acc);
-    const detail::Periods periods = detail::variable_periods({double(s_.width), double(s_.height)});
-    const double x[2] = {double(p % std::size_t(s_.width)), double(p / std::size_t(s_.width))};
-    double* out = acc.position.data();
-    for (std::size_t k = 0; k < m_; ++k) {
-      const double g = double(acc.pixel[k]);
-      out[k] += g;
-      for (std::size_t n = 0; n < 2; ++n) {
-        const double var = mean_[(2 + n) * m_ + k];
-        const double d = detail::wrapped_difference(x[n] - mean_[n * m_ + k], periods[n]);
-        out[(1 + n) * m_ + k] += g * d / var;
-        out[(3 + n) * m_ + k] += 0.5 * g * (d * d / var - 1.0);
+  // Pixel p's samples of light l in the selection, each adding g_m to the sums of the
+  // pixel's terms of t_m (Eq. 10): a_m and, through d / sigma^2 and (d^2 / sigma^2 - 1) / 2
+  // of x and y (the pixel's rows, computed once for its samples), dE/dmu and dE/ds of x, y.
+  void add_pixel(std::size_t p, std::size_t l, PassSums<Real>& acc) const {
+    const std::size_t nv = s_.views, pairs = s_.lights * nv, modulus = selection_.modulus;
+    const std::size_t first = l * nv;
+    acc.taken.clear();
+    const std::size_t start = (selection_.residue + modulus - (p + first) % modulus) % modulus;
+    for (std::size_t v = start; v < nv; v += modulus)
+      if (selection_.takes(p, first + v, pairs)) acc.taken.push_back(v);
+    if (acc.taken.empty()) return;
+    if (gradient_) set_rows(p, acc.rows.data());
+    for (const std::size_t v : acc.taken) add_sample(p, l, v, acc);
+  }
+
+  // d / sigma^2 and (d^2 / sigma^2 - 1) / 2 of x and y for pixel p, 4 rows of M.
+  void set_rows(std::size_t p, Real* rows) const {
+    const std::size_t m = m_;
+    const Real x[2] = {Real(p % std::size_t(s_.width)), Real(p / std::size_t(s_.width))};
+    for (std::size_t n = 0; n < 2; ++n) {
+      const Real period = Real(periods_[n]);
+      const Real inv_period = period > Real(0) ? Real(1) / period : Real(0);
+      const Real *mean = &mean_[n * m], *inv_var = &inv_var_[n * m];
+      Real *r = rows + n * m, *q = rows + (2 + n) * m;
+#pragma omp simd
+      for (std::size_t k = 0; k < m; ++k) {
+        Real d = x[n] - mean[k];
+        d -= period * std::floor(d * inv_period + Real(0.5));  // the minimum image
+        r[k] = d * inv_var[k];
+        q[k] = Real(0.5) * (d * r[k] - Real(1));
       }
     }
   }
 
-  // Every chunk's sums, added to the totals in chunk order and cleared.
-  void sum_over_chunks() {
-    const std::size_t pixels = s_.pixels();
-    const std::ptrdiff_t chunks = std::ptrdiff_t((pixels + kChunkPixels - 1) / kChunkPixels);
+  // Every held light's sums, each light's in its own partial (in double), then folded in
+  // light order over the processes.
+  void sum_over_lights() {
+    const std::size_t held = s_.held_lights(), n = partial_size();
+    partials_.assign(held * n, 0.0);
 #pragma omp parallel num_threads(threads_)
     {
       PassSums<Real>& acc = sums_[std::size_t(omp_get_thread_num())];
-#pragma omp for ordered schedule(dynamic, 1)
-      for (std::ptrdiff_t c = 0; c < chunks; ++c) {
-        const std::size_t chunk_end = std::min(pixels, std::size_t(c + 1) * kChunkPixels);
-        for (std::size_t p = std::size_t(c) * kChunkPixels; p < chunk_end; ++p) add_pixel(p, acc);
-#pragma omp ordered
-        add_and_clear(acc);
+#pragma omp for schedule(dynamic, 1)
+      for (std::ptrdiff_t i = 0; i < std::ptrdiff_t(held); ++i) {
+        const std::size_t l = s_.first_light + std::size_t(i);
+        for (std::size_t p = 0; p < s_.pixels(); ++p) add_pixel(p, l, acc);
+        move_into(acc, &partials_[std::size_t(i) * n]);
       }
+    }
+    total_ = detail::fold_over_processes(s_.processes.get(), total_size(),
+                                         [this, held, n](std::vector<double>& t) {
+                                           for (std::size_t i = 0; i < held; ++i)
+                                             fold(&partials_[i * n], s_.first_light + i, t);
+                                         });
+  }
+
+  // A light's sums into its partial (in double), the sums cleared.
+  void move_into(PassSums<Real>& acc, double* partial) const {
+    const std::size_t n = partial_size();
+    partial[n - 2] = acc.error;
+    partial[n - 1] = double(acc.samples);
+    acc.error = 0.0;
+    acc.samples = 0;
+    if (!gradient_) return;
+    move(acc.view, partial);
+    move(acc.colour, partial + at_colour());
+    move(acc.position, partial + at_position());
+    move(acc.light, partial + at_light());
+  }
+  static void move(std::vector<Real>& from, double* to) {
+    for (std::size_t i = 0; i < from.size(); ++i) {
+      to[i] = double(from[i]);
+      from[i] = Real(0);
     }
   }
 
-  void add_and_clear(PassSums<Real>& acc) {
-    add_and_clear(acc.light, total_light_);
-    add_and_clear(acc.view, total_view_);
-    add_and_clear(acc.colour, total_colour_);
-    for (std::size_t i = 0; i < acc.position.size(); ++i) {
-      position_[i] += acc.position[i];
-      acc.position[i] = 0.0;
-    }
-    error_ += acc.error;
-    samples_ += acc.samples;
-    acc.error = 0.0;
-    acc.samples = 0;
-  }
-  static void add_and_clear(std::vector<Real>& from, std::vector<double>& to) {
-    for (std::size_t i = 0; i < from.size(); ++i) {
-      to[i] += double(from[i]);
-      from[i] = Real(0);
-    }
+  // Light l's partial added to the totals.
+  void fold(const double* partial, std::size_t l, std::vector<double>& t) const {
+    const std::size_t n = partial_size();
+    t[t.size() - 2] += partial[n - 2];
+    t[t.size() - 1] += partial[n - 1];
+    if (!gradient_) return;
+    for (std::size_t i = 0; i < at_light(); ++i) t[i] += partial[i];
+    for (std::size_t k = 0; k < m_; ++k) t[at_light() + l * m_ + k] += partial[at_light() + k];
   }
 
   // d t / d mu and d t / d s of an angle: the term -s/2 - d^2 / (2 sigma^2) of Eq. (10).
@@ -227,26 +267,29 @@ class GradientPass {
     out.log_var[k][n] += 0.5 * g * (d * d / var - 1.0);
   }
 
-  PredictionGradient gradient(const ProductMixture& mix) const {
+  PredictionGradient result(const ProductMixture& mix) const {
     PredictionGradient out;
-    out.samples = samples_;
-    out.error = error_;
+    out.error = total_[total_.size() - 2];
+    out.samples = std::size_t(total_[total_.size() - 1]);
+    if (!gradient_) return out;
     out.log_weight.assign(m_, 0.0);
     out.mean.assign(m_, {});
     out.log_var.assign(m_, {});
+    const double* position = &total_[at_position()];
     for (std::size_t k = 0; k < m_; ++k) {
-      out.log_weight[k] = position_[k];
+      out.log_weight[k] = position[k];
       for (std::size_t n = 0; n < 2; ++n) {
-        out.mean[k][n] = position_[(1 + n) * m_ + k];
-        out.log_var[k][n] = position_[(3 + n) * m_ + k];
+        out.mean[k][n] = position[(1 + n) * m_ + k];
+        out.log_var[k][n] = position[(3 + n) * m_ + k];
       }
-      for (std::size_t l = s_.first_light; l < s_.light_end(); ++l)
+      for (std::size_t l = 0; l < s_.lights; ++l)
         for (std::size_t j = 0; j < 2; ++j)
-          add_angle_gradient(total_light_[l * m_ + k], s_.light_ab[l][j], k, 2 + j, mix, out);
+          add_angle_gradient(total_[at_light() + l * m_ + k], s_.light_ab[l][j], k, 2 + j, mix,
+                             out);
       for (std::size_t v = 0; v < s_.views; ++v)
         for (std::size_t j = 0; j < 2; ++j)
-          add_angle_gradient(total_view_[v * m_ + k], s_.view_ab[v][j], k, 4 + j, mix, out);
-      for (std::size_t c = 0; c < 3; ++c) out.mean[k][6 + c] = total_colour_[c * m_ + k];
+          add_angle_gradient(total_[v * m_ + k], s_.view_ab[v][j], k, 4 + j, mix, out);
+      for (std::size_t c = 0; c < 3; ++c) out.mean[k][6 + c] = total_[at_colour() + c * m_ + k];
     }
     return out;
   }
@@ -254,24 +297,41 @@ class GradientPass {
   const SampleSet& s_;
   std::size_t m_;
   int threads_;
-  std::size_t stride_;
+  detail::Selection selection_;
+  bool gradient_ = true;
   std::vector<Real> pixel_, light_, view_, colour_;  // the exponents' parts, mu_m,6+c
-  std::vector<double> position_;  // dE/da_m, dE/dmu_m0, dE/dmu_m1, dE/ds_m0, dE/ds_m1
-  std::vector<double> mean_;      // mu_m0, mu_m1, sigma^2_m0, sigma^2_m1
-  std::vector<double> total_light_, total_view_, total_colour_;
-  double error_ = 0.0;
-  std::size_t samples_ = 0;
-  std::vector<PassSums<Real>> sums_;  // one per thread
+  std::vector<Real> mean_, inv_var_;                 // mu_m0, mu_m1; 1 / sigma^2_m0, 1 / sigma^2_m1
+  detail::Periods periods_;
+  std::vector<double> partials_, total_;  // per held light; folded
+  std::vector<PassSums<Real>> sums_;      // one per thread
 };
 
 }  // namespace
 
 PredictionGradient prediction_gradient(const SampleSet& samples, const ProductMixture& mix,
                                        int threads, std::size_t stride, PassPrecision precision) {
+  const detail::Selection all{std::max<std::size_t>(stride, 1), 0, detail::Selection::Part::kAll};
   if (precision == PassPrecision::kFloat)
-    return GradientPass<float>(samples, mix.size(), threads, stride)(mix);
-  return GradientPass<double>(samples, mix.size(), threads, stride)(mix);
+    return GradientPass<float>(samples, mix.size(), threads)(mix, all);
+  return GradientPass<double>(samples, mix.size(), threads)(mix, all);
 }
+
+std::pair<double, std::size_t> validation_error(const SampleSet& samples, const ProductMixture& mix,
+                                                int threads) {
+  return detail::selection_error(samples, mix, threads,
+                                 {1, 0, detail::Selection::Part::kValidation});
+}
+
+namespace detail {
+
+std::pair<double, std::size_t> selection_error(const SampleSet& samples, const ProductMixture& mix,
+                                               int threads, const Selection& selection) {
+  const PredictionGradient g =
+      GradientPass<float>(samples, mix.size(), threads)(mix, selection, false);
+  return {g.error, g.samples};
+}
+
+}  // namespace detail
 
 namespace {
 
@@ -326,73 +386,164 @@ void keep_within_bounds(std::vector<double>& theta, const ProductMixture& mix) {
       theta[k * kParams + 1 + kVariables + std::size_t(n)] = std::log(mix.var[k][std::size_t(n)]);
 }
 
-// One round of Adam steps (Kingma & Ba 2015: beta 0.9, 0.999, bias-corrected moments) from
-// `mix` at a constant rate, warmed up linearly over the first kWarmUpSteps steps. The steps
-// go on from the parameters they reached, also after a step that raised the error (on a
-// subsample the error is noisy: undoing such steps and restarting the moments stalled the
-// descent, docs/ALGORITHM.md); the parameters of the lowest error met are the round's result.
-// Leaves them in `mix` and returns their error.
-// Stops after the step where config.stop is set (out.stopped).
-double adam_round(const SampleSet& samples, ProductMixture& mix, int threads, std::size_t stride,
-                  const GradientConfig& config, int round, PredictionRefinement& out) {
-  constexpr int kWarmUpSteps = 20;
-  const detail::Periods periods =
-      detail::variable_periods({double(samples.width), double(samples.height)});
-  ProductMixture best = mix;
-  double best_error = INFINITY;
-  std::vector<double> theta = pack(mix), m1(theta.size(), 0.0), m2(theta.size(), 0.0);
-  GradientPass<float> pass(samples, mix.size(), threads, stride);
-  for (int t = 1; t <= config.steps + 1; ++t) {
-    const PredictionGradient g = pass(mix);
-    ++out.passes;
-    if (g.error < best_error) {
-      best = mix;
-      best_error = g.error;
-    }
-    if (config.progress)
-      config.progress({round, t - 1, config.steps, prediction_rmse(best_error, g.samples)});
-    if (t > config.steps) break;
-    if (config.stop && config.stop->load()) {
-      out.stopped = true;
-      break;
-    }
-    ++out.steps;
-    const std::vector<double> grad = pack(g);
-    const double warm_up = std::min(1.0, double(t) / kWarmUpSteps);
+// Adam (Kingma & Ba 2015: beta 0.9, 0.999, bias-corrected moments) on the parameter vector,
+// its moments and step count kept between steps.
+struct Adam {
+  std::vector<double> theta, m1, m2;
+  int t = 0;
+  explicit Adam(std::vector<double> start)
+      : theta(std::move(start)), m1(theta.size(), 0.0), m2(theta.size(), 0.0) {}
+  // One step along `grad` at `rate` (`colour_rate` for the colour means).
+  void step(const std::vector<double>& grad, double rate, double colour_rate) {
+    ++t;
     const double c1 = 1.0 - std::pow(0.9, t), c2 = 1.0 - std::pow(0.999, t);
     for (std::size_t i = 0; i < theta.size(); ++i) {
       m1[i] = 0.9 * m1[i] + 0.1 * grad[i];
       m2[i] = 0.999 * m2[i] + 0.001 * grad[i] * grad[i];
       const std::size_t j = i % kParams;
-      const double rate = (j >= 7 && j < 10 ? config.colour_rate : config.rate) * warm_up;
-      theta[i] -= rate * (m1[i] / c1) / (std::sqrt(m2[i] / c2) + 1e-300);
+      const double r = j >= 7 && j < 10 ? colour_rate : rate;
+      theta[i] -= r * (m1[i] / c1) / (std::sqrt(m2[i] / c2) + 1e-300);
     }
-    unpack(theta, mix, periods);
-    keep_within_bounds(theta, mix);
   }
-  mix = std::move(best);
-  return best_error;
+};
+
+// The stopping rule on the validation error (GradientConfig): the lowest met, the error the
+// next gain is measured from, the validations since the last gain, the rate's halvings.
+struct Convergence {
+  double best = INFINITY, reference = INFINITY, rate_scale = 1.0;
+  int since_gain = 0, plateaus = 0;
+  // After a validation of error e: whether the steps have converged.
+  bool converged(double e, const GradientConfig& c) {
+    best = std::min(best, e);
+    if (e < reference * (1.0 - c.min_gain)) {
+      reference = e;
+      since_gain = 0;
+      return false;
+    }
+    if (++since_gain < c.patience) return false;
+    since_gain = 0;
+    reference = best;
+    rate_scale *= 0.5;
+    return ++plateaus >= c.plateaus;
+  }
+};
+
+// The minibatches of the training samples: `count` of them, batch b the samples with
+// (p + l nv + v) mod count = b (every image keeps every count-th pixel), less those held out.
+std::size_t minibatches(const SampleSet& samples, std::size_t batch) {
+  const std::size_t training = samples.size() - samples.size() / kValidationEvery;
+  return std::max<std::size_t>(1, training / std::max<std::size_t>(batch, 1));
+}
+
+// Where the steps are, for the progress and the stop.
+struct Epochs {
+  std::chrono::steady_clock::time_point start = std::chrono::steady_clock::now();
+  double train_error = 0.0;
+  std::size_t train_samples = 0;
+  double elapsed() const {
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  }
+};
+
+// The progress after a validation (`last`: after the last step, fraction 1).
+void report(const GradientConfig& config, const Epochs& at, const Convergence& rule,
+            const PredictionRefinement& out, double rmse, bool last) {
+  if (!config.progress) return;
+  const double fraction =
+      last             ? 1.0
+      : out.steps == 0 ? 0.0
+      : config.steps > 0
+          ? double(out.steps) / config.steps
+          : std::max({at.elapsed() / config.seconds, double(out.epochs - 1) / config.max_epochs,
+                      double(rule.plateaus) / std::max(1, config.plateaus)});
+  config.progress({out.epochs, out.steps, config.steps, rmse,
+                   prediction_rmse(out.error_final, out.samples),
+                   prediction_rmse(at.train_error, at.train_samples), at.elapsed(), config.seconds,
+                   std::min(fraction, 1.0)});
+}
+
+// Validation after a step: the lowest error's mixture kept in `best`; the progress reported.
+// Returns whether the rule has converged.
+bool validate(const SampleSet& samples, const ProductMixture& mix, int threads,
+              const GradientConfig& config, const Epochs& at, Convergence& rule,
+              ProductMixture& best, PredictionRefinement& out) {
+  const detail::Selection validation{1, 0, detail::Selection::Part::kValidation};
+  const double e = detail::selection_error(samples, mix, threads, validation).first;
+  ++out.passes;
+  if (e < out.error_final) {
+    best = mix;
+    out.error_final = e;
+  }
+  const bool converged = rule.converged(e, config);
+  report(config, at, rule, out, prediction_rmse(e, out.samples), false);
+  return converged && config.steps == 0;
+}
+
+// Whether the steps end after this one: a stop asked for (in any process), the time bound,
+// the steps asked for.
+bool steps_end(const SampleSet& samples, const GradientConfig& config, const Epochs& at,
+               PredictionRefinement& out) {
+  const bool asked = config.stop && config.stop->load();
+  const bool late = at.elapsed() > config.seconds;
+  if (detail::any_process(samples.processes.get(), asked || late)) {
+    out.stopped = detail::any_process(samples.processes.get(), asked);
+    out.timed_out = !out.stopped;
+    return true;
+  }
+  return config.steps > 0 && out.steps >= config.steps;
 }
 
 }  // namespace
 
 namespace detail {
 
-double gradient_rounds(const SampleSet& samples, ProductMixture& mix, int threads,
-                       std::size_t stride, const GradientConfig& config, double error,
-                       PredictionRefinement& out) {
-  const std::size_t pass_stride = detail::subsample_stride(samples.size(), config.samples);
-  for (int r = 0; r < config.rounds; ++r) {
-    ProductMixture trial = mix;
-    adam_round(samples, trial, threads, pass_stride, config, r + 1, out);
-    const ColourRefit refit =
-        refit_colour_means(colour_normal_equations(samples, trial, threads, stride), trial);
-    if (!(refit.error_after < error)) break;
-    error = refit.error_after;
-    mix = std::move(trial);
-    if (out.stopped) break;
+void gradient_epochs(const SampleSet& samples, ProductMixture& mix, int threads,
+                     const GradientConfig& config, PredictionRefinement& out) {
+  constexpr int kWarmUpSteps = 20;
+  const detail::Periods periods =
+      detail::variable_periods({double(samples.width), double(samples.height)});
+  const std::size_t batches = minibatches(samples, config.batch);
+  out.training_samples = samples.size() - out.samples;
+  out.batch_samples = out.training_samples / batches;
+  const std::size_t validate_every = std::max<std::size_t>(1, batches / 4);
+  GradientPass<float> pass(samples, mix.size(), threads);
+  ProductMixture best = mix;
+  Adam adam(pack(mix));
+  Convergence rule;
+  rule.best = rule.reference = out.error_final;
+  Epochs at;
+  std::mt19937_64 draw(config.seed);
+  std::vector<std::size_t> order(batches);
+  const double start_rmse = prediction_rmse(out.error_final, out.samples);
+  report(config, at, rule, out, start_rmse, false);
+  bool done = false;
+  for (int epoch = 1; !done && epoch <= config.max_epochs; ++epoch) {
+    out.epochs = epoch;
+    std::iota(order.begin(), order.end(), std::size_t(0));
+    std::shuffle(order.begin(), order.end(), draw);
+    at.train_error = 0.0;
+    at.train_samples = 0;
+    for (std::size_t k = 0; k < batches && !done; ++k) {
+      const PredictionGradient g = pass(mix, {batches, order[k], Selection::Part::kTraining});
+      ++out.passes;
+      at.train_error += g.error;
+      at.train_samples += g.samples;
+      const double warm_up = std::min(1.0, double(adam.t + 1) / kWarmUpSteps);
+      const double scale = warm_up * rule.rate_scale;
+      adam.step(pack(g), config.rate * scale, config.colour_rate * scale);
+      unpack(adam.theta, mix, periods);
+      keep_within_bounds(adam.theta, mix);
+      ++out.steps;
+      const bool due = (k + 1) % validate_every == 0 || k + 1 == batches;
+      const bool converged = due && validate(samples, mix, threads, config, at, rule, best, out);
+      done = steps_end(samples, config, at, out) || converged;
+      if (done && !due) validate(samples, mix, threads, config, at, rule, best, out);
+    }
   }
-  return error;
+  out.training_rmse = prediction_rmse(at.train_error, at.train_samples);
+  out.gradient_seconds = at.elapsed();
+  report(config, at, rule, out, prediction_rmse(out.error_final, out.samples), true);
+  mix = std::move(best);
 }
 
 }  // namespace detail

@@ -1,10 +1,16 @@
-// The gradient rounds of the fit for the prediction (refine_gradient.cpp), called by
-// refine_for_prediction (refine.cpp).
+// What the fit for the prediction shares between its colour refit (refine.cpp) and its
+// gradient passes (refine_gradient.cpp): which samples are held out for validation, which
+// enter a minibatch, and the sums over lights folded in one fixed order on any number of
+// processes and threads.
 #pragma once
 
 #include <algorithm>
 #include <cstddef>
+#include <cstdint>
+#include <span>
+#include <vector>
 
+#include "btfgmm/core/communicator.hpp"
 #include "btfgmm/model/refine.hpp"
 
 namespace btfgmm::detail {
@@ -15,12 +21,72 @@ inline std::size_t subsample_stride(std::size_t samples, std::size_t wanted) {
   return std::max<std::size_t>(1, samples / std::max<std::size_t>(wanted, 1));
 }
 
-// From a mixture whose colour means were just refitted (prediction error `error` on the
-// samples of `stride`): config.rounds rounds of Adam steps on every parameter, each closed by
-// the colour refit and kept only where it lowers the error. Returns the lowest error reached,
-// its mixture in `mix`; adds the passes and steps made to `out` and sets its `stopped`.
-double gradient_rounds(const SampleSet& samples, ProductMixture& mix, int threads,
-                       std::size_t stride, const GradientConfig& config, double error,
-                       PredictionRefinement& out);
+// SplitMix64's finaliser (Steele, Lea & Flood 2014): a well-mixed hash of an index.
+inline std::uint64_t mix_bits(std::uint64_t z) {
+  z += 0x9e3779b97f4a7c15ULL;
+  z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ULL;
+  z = (z ^ (z >> 27)) * 0x94d049bb133111ebULL;
+  return z ^ (z >> 31);
+}
+
+// Whether sample (pixel p, (light, view) pair j = l nv + v of the whole tile) is held out for
+// validation: 1 in kValidationEvery of pixels x directions, by a hash of its place in the tile
+// (the same on any number of processes; validation_sample in refine.hpp).
+inline bool held_out(std::size_t p, std::size_t j, std::size_t pairs) {
+  return validation_sample(p, j, pairs);
+}
+
+// The samples a pass takes: those of pixel p and pair j with (p + j) mod `modulus` =
+// `residue` (a systematic subsample: every image keeps every modulus-th pixel), and of those
+// the training samples, the validation samples, or all.
+struct Selection {
+  enum class Part { kAll, kTraining, kValidation };
+  std::size_t modulus = 1, residue = 0;
+  Part part = Part::kAll;
+  bool takes(std::size_t p, std::size_t j, std::size_t pairs) const {
+    if ((p + j) % modulus != residue) return false;
+    if (part == Part::kAll) return true;
+    return held_out(p, j, pairs) == (part == Part::kValidation);
+  }
+};
+
+// The totals of sums taken light by light over the lights of every process, folded in light
+// order: total = (((0 + s_0) + s_1) + ...) whichever process holds which lights, so that 1, 2
+// or 3 processes (and any number of threads) give the same totals bit for bit. fold_own(total)
+// adds this process's lights, in order, to `total` (n values). Over several processes they
+// take turns in rank order, each from the totals of those before it (one exchange a process).
+template <class FoldOwn>
+std::vector<double> fold_over_processes(Communicator* processes, std::size_t n,
+                                        FoldOwn&& fold_own) {
+  std::vector<double> total(n, 0.0);
+  if (!processes || processes->size() == 1) {
+    fold_own(total);
+    return total;
+  }
+  for (int turn = 0; turn < processes->size(); ++turn) {
+    std::vector<double> mine;
+    if (turn == processes->rank()) {
+      fold_own(total);
+      mine = total;
+    }
+    auto all = all_gather_values<double>(*processes, std::span<const double>(mine));
+    total = std::move(all[std::size_t(turn)]);
+  }
+  return total;
+}
+
+// Whether any process asks (true in one asks all); one exchange over several processes.
+bool any_process(Communicator* processes, bool mine);
+
+// From a mixture whose colour means were just refitted: the Adam epochs of `config` over the
+// training samples, the colour refit after them; the parameters of the lowest validation
+// error met are kept in `mix`. Fills `out` (steps, epochs, errors, stopped).
+void gradient_epochs(const SampleSet& samples, ProductMixture& mix, int threads,
+                     const GradientConfig& config, PredictionRefinement& out);
+
+// The squared error of the prediction over the samples of `selection` (float pass), and
+// their count.
+std::pair<double, std::size_t> selection_error(const SampleSet& samples, const ProductMixture& mix,
+                                               int threads, const Selection& selection);
 
 }  // namespace btfgmm::detail

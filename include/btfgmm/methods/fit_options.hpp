@@ -36,7 +36,8 @@ struct FitOptions {
   std::string precision;  // gm: "compact" (default; "q8" too), "f32" or "f16"; others: "q8"
                           // (default), "f32", "f16"
   std::string objective;  // gm: "prediction" (default) or "likelihood" (the paper's EM alone)
-  int refine_steps = 0;   // gm, prediction: the refinement's Adam steps (0: as many as it affords)
+  int refine_steps = 0;   // gm, prediction: the refinement's Adam steps (0: its stopping rule)
+  double refine_seconds = 0.0;  // gm, prediction: its bound on time (0: default_refine_seconds)
 };
 
 // What a fit request does: a new fit, an interrupted mixture's fit resumed from its

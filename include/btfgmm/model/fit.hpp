@@ -29,9 +29,12 @@ struct FitConfig {
   // prediction's error (refine_for_prediction, model/refine.hpp; em.stop ends its steps
   // early). `btfgmm fit` asks for the latter unless --objective likelihood.
   FitObjective objective = FitObjective::kLikelihood;
-  // kPrediction: the refinement's Adam steps; 0: as many as the fit affords beside EM
-  // (affordable_gradient).
+  // kPrediction: the refinement's Adam steps; 0: until the validation error converges
+  // (GradientConfig).
   int refinement_steps = 0;
+  // kPrediction: the refinement's bound on its time, seconds (GradientConfig::seconds); 0:
+  // default_refine_seconds(components).
+  double refinement_seconds = 0.0;
 };
 
 // The mixture's fit of `components` components and `iterations` EM iterations (0: the

@@ -3,11 +3,14 @@
 // gating weights EM found (docs/ALGORITHM.md, "Fitting for the prediction").
 #pragma once
 
+#include <algorithm>
 #include <array>
 #include <atomic>
 #include <cstddef>
+#include <cstdint>
 #include <functional>
 #include <string_view>
+#include <utility>
 #include <vector>
 
 #include "btfgmm/model/mixture.hpp"
@@ -41,9 +44,12 @@ struct ColourNormalEquations {
 };
 // `stride` > 1: only the samples of pixel p and (light, view) pair l nv + v with p + l nv + v
 // divisible by it enter the sums, a systematic subsample for large sample sets that keeps
-// every stride-th pixel of every image.
+// every stride-th pixel of every image. `training`: the validation samples
+// (validation_sample) left out. Summed light by light, folded in light order over the
+// processes of a distributed set: the same for any number of threads and processes.
 ColourNormalEquations colour_normal_equations(const SampleSet& samples, const ProductMixture& mix,
-                                              int threads = 0, std::size_t stride = 1);
+                                              int threads = 0, std::size_t stride = 1,
+                                              bool training = false);
 
 // The RMSE (model units: levels) of a squared error summed over `samples` samples' three
 // channels.
@@ -92,63 +98,105 @@ PredictionGradient prediction_gradient(const SampleSet& samples, const ProductMi
                                        int threads = 0, std::size_t stride = 1,
                                        PassPrecision precision = PassPrecision::kDouble);
 
-// Where the gradient passes are: after `step` of `steps` Adam steps of round `round` (from 1),
-// the RMSE (model units: levels) of the lowest error met, on the passes' subsample.
+// The prediction's squared error (model units squared) over the validation samples
+// (validation_sample) and their count, in the float pass the refinement validates with.
+std::pair<double, std::size_t> validation_error(const SampleSet& samples, const ProductMixture& mix,
+                                                int threads = 0);
+
+// The held-out validation set of the fit for the prediction: 1 in kValidationEvery samples of
+// the tile (pixels x directions), chosen by a hash of the sample's place in the whole tile,
+// pixel p and (light, view) pair j = l nv + v of `pairs` = ni nv, so the same on any number
+// of processes. No step of the refinement uses them; they choose the parameters kept and
+// when to stop (docs/ALGORITHM.md, "Fitting for the prediction").
+constexpr std::size_t kValidationEvery = 20;
+bool validation_sample(std::size_t pixel, std::size_t pair, std::size_t pairs);
+
+// Where the refinement is, after a validation: `step` Adam steps in `epoch` epochs (passes
+// over the training samples, from 1); the validation RMSE (model units: levels) of the
+// parameters just reached and the lowest met, the training RMSE over the last epoch's
+// minibatches, and the seconds since the refinement began of at most `seconds`.
 struct GradientProgress {
-  int round = 1, step = 0, steps = 0;
-  double rmse = 0.0;
+  int epoch = 1, step = 0, steps = 0;  // steps: those asked for (GradientConfig::steps), or 0
+  double validation_rmse = 0.0, best_validation_rmse = 0.0, training_rmse = 0.0;
+  double elapsed = 0.0, seconds = 0.0;
+  // How far along, 0 before the first step to 1 after the last: of the steps asked for, or the
+  // most of the time bound's, the epochs' and the stopping rule's halvings' shares.
+  double fraction = 0.0;
 };
 using GradientCallback = std::function<void(const GradientProgress&)>;
 
-// The gradient passes of refine_for_prediction: `rounds` times, `steps` Adam steps on all
-// parameters at a constant rate (warmed up over the first 20 steps; `rate` in each
-// parameter's own unit: a_m, the input means in their units, s_mn; `colour_rate` levels for
-// the colour means), the parameters of the lowest error met kept, then the colour means
-// refitted in closed form. rounds 0: the colour refit alone. The passes take a systematic
-// subsample of about `samples` samples (a stride as colour_normal_equations takes it), the
-// refits their own (refine_for_prediction).
+// The refinement's default bound on its time (fit --refine-seconds), in seconds: M / 6 (100 s
+// at M = 600), so that any M gets about as many passes over the data; with EM's 40
+// iterations it keeps the default fit of a 25 x 25 tile at M = 600 within 5 minutes on two
+// cores (docs/ALGORITHM.md).
+constexpr double kDefaultRefineSecondsPerComponent = 1.0 / 6.0;
+inline double default_refine_seconds(std::size_t components) {
+  return std::max(30.0, double(components) * kDefaultRefineSecondsPerComponent);
+}
+constexpr double kMaxRefineSeconds = 7.0 * 24 * 3600;
+constexpr int kMaxRefineSteps = 100000;  // the most a fit may ask for (fit --refine-steps)
+
+// The gradient epochs of refine_for_prediction: Adam steps (Kingma & Ba 2015) on every
+// parameter over minibatches of about `batch` training samples, the batches of an epoch
+// covering every training sample of the tile once (in an order drawn from `seed`), at a rate
+// (`rate` in each parameter's own unit: a_m, the input means, s_mn; `colour_rate` levels for
+// the colour means) warmed up over the first 20 steps and halved whenever the validation
+// error has not fallen by `min_gain` (relative) over `patience` validations (each a quarter
+// of an epoch); the steps end after `plateaus` such halvings, after `seconds`, after
+// `max_epochs`, or when `stop` is set, and the parameters of the lowest validation error met
+// are kept. `steps` > 0: exactly that many steps instead (the rule off; seconds and stop
+// still end them). gradient false: the colour refit alone.
 struct GradientConfig {
-  int rounds = 1;
-  int steps = 600;
+  bool gradient = true;
+  int steps = 0;
+  double seconds = default_refine_seconds(600);
+  int max_epochs = 1000;
+  int patience = 4;
+  int plateaus = 3;
+  double min_gain = 1e-3;
   double rate = 0.02;
   double colour_rate = 2.0;
-  std::size_t samples = 40000;
-  GradientCallback progress;  // after every step (may be empty)
+  std::size_t batch = 16384;
+  std::uint64_t seed = 1;
+  GradientCallback progress;  // before the first step, after every validation, after the last
   // Checked after every step: when set, the steps end there, the parameters of the lowest
-  // error met are kept and closed by the colour refit as after the last step
+  // validation error met are kept and closed by the colour refit as after the last step
   // (PredictionRefinement::stopped). Null: never.
   const std::atomic<bool>* stop = nullptr;
 };
 
-// The gradient passes a fit can afford beside EM's `em_iterations` iterations over `samples`
-// samples, within twice the time of EM alone: steps whose work (steps x the samples of a
-// pass) is kGradientWorkShare of EM's (iterations x samples), between kMinGradientSteps and
-// kMaxGradientSteps. In a whole fit a sample of a pass costs about four times a sample of an
-// EM iteration (EM skips the negligible components of whole groups of samples; a pass weighs
-// them all), so the passes take about 0.4 of EM's time; the two colour refits and the last E
-// pass add a few per cent (docs/ALGORITHM.md).
-constexpr double kGradientWorkShare = 0.10;
-constexpr int kMaxRefineSteps = 100000;  // the most a fit may ask for (fit --refine-steps)
-constexpr int kMinGradientSteps = 10, kMaxGradientSteps = 1000;
-GradientConfig affordable_gradient(std::size_t samples, int em_iterations);
+// The most components a tile supports for the fit for the prediction: one per
+// kSamplesPerComponent training samples (16 parameters each); more are refused before the
+// work (fit --components).
+constexpr std::size_t kSamplesPerComponent = 64;
+std::size_t supported_components(std::size_t samples);
 
-// What refine_for_prediction did: the prediction's squared error (model units squared, all
-// samples and channels) after EM and after each stage.
+// What refine_for_prediction did: the prediction's squared error (model units squared, over
+// the validation samples, all channels) after EM and after each stage.
 struct PredictionRefinement {
-  double error_em = 0.0;      // EM's mixture
-  double error_colour = 0.0;  // after the colour means' refit
-  double error_final = 0.0;   // after the gradient passes and the last colour refit
-  int passes = 0;             // gradient passes (each one over the samples)
-  int steps = 0;              // Adam steps taken, every round's
-  int steps_planned = 0;      // rounds x steps asked for
-  bool stopped = false;       // ended early by GradientConfig::stop
-  std::size_t samples = 0;    // of the colour refits' subsample, on which the errors are
+  double error_em = 0.0;       // EM's mixture
+  double error_colour = 0.0;   // after the colour means' refit
+  double error_final = 0.0;    // the mixture kept
+  double training_rmse = 0.0;  // levels, over the last epoch's minibatches (0: no steps)
+  int passes = 0;              // validation and gradient passes over parts of the samples
+  int steps = 0;               // Adam steps taken
+  int steps_planned = 0;       // GradientConfig::steps (0: the stopping rule's)
+  int epochs = 0;              // epochs begun
+  bool stopped = false;        // ended early by GradientConfig::stop
+  bool timed_out = false;      // ended by GradientConfig::seconds
+  std::size_t samples = 0;     // validation samples, on which the errors are
+  std::size_t training_samples = 0;
+  std::size_t batch_samples = 0;  // training samples of a minibatch (about)
+  double seconds = 0.0;           // the whole refinement's
+  double gradient_seconds = 0.0;  // its epochs' (steps and validations)
 };
 
 // The mixture EM fitted, refined for the prediction's error (docs/ALGORITHM.md, "Fitting for
-// the prediction"): the colour means refitted by least squares (refit_colour_means), then
-// the gradient passes of `gradient` (all parameters, Adam), each round closed by a colour
-// refit; the result with the lowest error is kept, so it is never above the first refit's.
+// the prediction"): the colour means refitted by least squares (refit_colour_means, on the
+// training samples), then the gradient epochs of `gradient` (all parameters, Adam, every
+// training sample), closed by a colour refit; of EM's mixture and each stage's, the one of
+// the lowest validation error is kept, so the result's is never above EM's. Over several
+// processes (samples.processes) every sum is folded in light order: the same result.
 // `threads` 0: all cores; the result is the same for any number of threads.
 PredictionRefinement refine_for_prediction(const SampleSet& samples, ProductMixture& mix,
                                            int threads = 0, const GradientConfig& gradient = {});
