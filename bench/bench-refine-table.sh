@@ -47,7 +47,7 @@ for tile in $tiles; do
       start=$(date +%s.%N)
       "$exe" fit "$work/$tile" -M "$m" --iterations "$iterations" -q -o "$model" \
         > "$model.log" 2>&1 || { echo "| $tile | $m | $build | failed: $(tail -1 "$model.log") |" >> "$out"; continue; }
-      seconds=$(echo "$(date +%s.%N) - $start" | bc)
+      seconds=$(awk -v a="$(date +%s.%N)" -v b="$start" 'BEGIN { printf "%.1f", a - b }')
       "$after" compare "$work/$tile" "$model" --json -q > "$model.json"
       python3 - "$model.json" "$tile" "$m" "$build" "$seconds" >> "$out" <<'PY'
 import json, sys

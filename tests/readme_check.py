@@ -81,6 +81,11 @@ def smaller(words):
             out[i + 1] = str(MAX_COMPONENTS)
     if len(out) > 1 and out[1] == "generate":
         out += SMALL_GENERATE
+    # A mixture fit at its default M: at most MAX_COMPONENTS (the test's tile is small).
+    mixture_fit = out[1:2] == ["fit"] and option(out, "--method") in (None, "gm") and not (
+        {"-M", "--components", "--resume", "--continue", "--budget", "--ratio"} & set(out))
+    if mixture_fit:
+        out += ["--components", str(MAX_COMPONENTS)]
     chooses = out[1:2] == ["sweep"] or (out[1:2] == ["fit"] and
                                         ("--budget" in out or "--ratio" in out))
     if chooses and "--iterations" not in out:

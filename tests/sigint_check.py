@@ -39,6 +39,8 @@ def run_until(argv, cwd, pattern, delay=0.0):
 
     reader = threading.Thread(target=read, daemon=True)
     reader.start()
+    if pattern is None:  # a command that prints nothing before its end: `delay` s after start
+        seen.set()
     if not seen.wait(START_TIMEOUT) or proc.poll() is not None:
         proc.kill()
         sys.exit(f"FAIL: {' '.join(argv)}: never reached /{pattern}/ (exit {proc.poll()}):\n"
@@ -114,7 +116,7 @@ def main():
         # Another method's fit (LPCA's rounds), a sweep, and the budget's candidates.
         code, took, err = run_until(fit + ["--method", "lpca", "--clusters", "64",
                                            "--components", "8", "-o", "lpca.btfgmm"],
-                                    work, r".", delay=1.0)
+                                    work, r"^lpca +0")
         check("fit --method lpca", code, took, err)
         code, took, err = run_until([btfgmm, "sweep", "btf", "--tile", "0,0,16,16",
                                      "-o", "sweep"], work, r"%|fitting|gm", delay=1.0)
@@ -130,7 +132,7 @@ def main():
         no_partial_files(os.path.join(work, "decoded"), "decode")
         code, took, err = run_until([btfgmm, "render", "small.btfgmm", "--mesh", "sphere",
                                      "--size", "6000x6000", "-o", "big.png"],
-                                    work, r".", delay=1.0)
+                                    work, None, delay=0.5)
         check("render", code, took, err)
         no_partial_files(work, "render")
     print("every stage stopped within", STOP_SECONDS, "s of SIGINT")

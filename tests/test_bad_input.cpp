@@ -270,7 +270,13 @@ TEST_F(BadInput, IterationsZero) {
 
 TEST_F(BadInput, DecodeSizeBeyondMemory) {
   fit();
-  const CliRun r = run("decode " + p("m.btfgmm") + " --size 65536x65536 -o " + p("dec"));
+  // Past what decode writes without asking: refused before any work, --yes named.
+  CliRun r = run("decode " + p("m.btfgmm") + " --size 65536x65536 -o " + p("dec"));
+  expect_refused(r, {"decode would write 30 images of 65536x65536 pixels, 360.0 GiB of 8-bit RGB",
+                     "more than the 1.0 GiB it writes without asking; give --yes"});
+  EXPECT_FALSE(fs::exists(p("dec")));
+  // With --yes, beyond the machine's memory: refused as before.
+  r = run("decode " + p("m.btfgmm") + " --size 65536x65536 --yes -o " + p("dec"));
   expect_refused(r, {"decoding 6 images of 65536x65536 pixels", "more than the",
                      "decode a smaller size (--size)"});
   EXPECT_FALSE(fs::exists(p("dec")));

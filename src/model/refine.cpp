@@ -80,7 +80,8 @@ struct Accumulator {
 }  // namespace
 
 ColourNormalEquations colour_normal_equations(const SampleSet& samples, const ProductMixture& mix,
-                                              int threads, std::size_t stride, bool training) {
+                                              int threads, std::size_t stride, bool training,
+                                              const std::atomic<bool>* stop) {
   const std::size_t m = mix.size();
   ColourNormalEquations eq;
   eq.components = m;
@@ -92,7 +93,8 @@ ColourNormalEquations colour_normal_equations(const SampleSet& samples, const Pr
       samples.processes.get(), at_count + 1, [&](std::vector<double>& t) {
         grid.reduce_over_lights(
             threads, [m] { return Accumulator(m); },
-            [](const detail::SampleWeights& s, Accumulator& acc) {
+            [stop](const detail::SampleWeights& s, Accumulator& acc) {
+              if (stop && stop->load(std::memory_order_relaxed)) return;
               acc.add(s);
               ++acc.samples;
             },
@@ -202,12 +204,16 @@ namespace {
 constexpr std::size_t kRefitSamples = 250000;
 
 // The colour means of `mix` refitted on the training samples of the refit's subsample, kept
-// where they lower the validation error `error`; returns the validation error of `mix`.
+// where they lower the validation error `error`; returns the validation error of `mix`. Set
+// `stop` ends it without a refit.
 double refit_where_it_validates(const SampleSet& samples, ProductMixture& mix, int threads,
-                                double error) {
+                                double error, const std::atomic<bool>* stop) {
   const std::size_t stride = detail::subsample_stride(samples.size(), kRefitSamples);
   ProductMixture trial = mix;
-  refit_colour_means(colour_normal_equations(samples, trial, threads, stride, true), trial);
+  const ColourNormalEquations eq =
+      colour_normal_equations(samples, trial, threads, stride, true, stop);
+  if (stop && stop->load()) return error;
+  refit_colour_means(eq, trial);
   const detail::Selection validation{1, 0, detail::Selection::Part::kValidation};
   const double after = detail::selection_error(samples, trial, threads, validation).first;
   if (!(after < error)) return error;
@@ -225,12 +231,15 @@ PredictionRefinement refine_for_prediction(const SampleSet& samples, ProductMixt
   const auto [em_error, held_out] = detail::selection_error(samples, mix, threads, validation);
   out.samples = held_out;
   out.error_em = em_error;
-  out.error_colour = refit_where_it_validates(samples, mix, threads, em_error);
+  out.error_colour = refit_where_it_validates(samples, mix, threads, em_error, gradient.stop);
+  out.stopped = gradient.stop && gradient.stop->load();
   out.error_final = out.error_colour;
   out.steps_planned = gradient.steps;
-  if (gradient.gradient) {
+  if (gradient.gradient && !out.stopped) {
     detail::gradient_epochs(samples, mix, threads, gradient, out);
-    out.error_final = refit_where_it_validates(samples, mix, threads, out.error_final);
+    out.error_final =
+        refit_where_it_validates(samples, mix, threads, out.error_final, gradient.stop);
+    out.stopped = out.stopped || (gradient.stop && gradient.stop->load());
   }
   out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return out;

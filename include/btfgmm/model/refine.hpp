@@ -46,10 +46,13 @@ struct ColourNormalEquations {
 // divisible by it enter the sums, a systematic subsample for large sample sets that keeps
 // every stride-th pixel of every image. `training`: the validation samples
 // (validation_sample) left out. Summed light by light, folded in light order over the
-// processes of a distributed set: the same for any number of threads and processes.
+// processes of a distributed set: the same for any number of threads and processes. `stop`
+// set while it runs: the remaining samples are skipped (checked at every sample) and the
+// sums are incomplete; the caller, which gave the flag, discards them.
 ColourNormalEquations colour_normal_equations(const SampleSet& samples, const ProductMixture& mix,
                                               int threads = 0, std::size_t stride = 1,
-                                              bool training = false);
+                                              bool training = false,
+                                              const std::atomic<bool>* stop = nullptr);
 
 // The RMSE (model units: levels) of a squared error summed over `samples` samples' three
 // channels.
