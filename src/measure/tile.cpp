@@ -159,14 +159,8 @@ class SeamSums {
       const std::size_t ux = std::size_t(x0), uy = std::size_t(y0);
       const double sx = px[wi][ux * (H + 1) + uy + std::size_t(h)] - px[wi][ux * (H + 1) + uy];
       const double sy = py[hi][uy * (W + 1) + ux + std::size_t(w)] - py[hi][uy * (W + 1) + ux];
-      // A tile as wide (high) as the image has no neighbour column (row) to be judged against:
-      // its seam is the step across its wrap beyond a typical step (0 when the image tiles).
-      const bool whole_x = w == W_, whole_y = h == H_;
-      const int nx = whole_x ? 1 : (x0 >= 1) + (x0 + w < W_);
-      const int ny = whole_y ? 1 : (y0 >= 1) + (y0 + h < H_);
-      double mx = sx / (per * h * nx), my = sy / (per * w * ny);
-      if (whole_x) mx = std::max(0.0, mx - dx);
-      if (whole_y) my = std::max(0.0, my - dy);
+      const double mx = mean_mismatch(sx / (per * h), x0, w, W_, dx);
+      const double my = mean_mismatch(sy / (per * w), y0, h, H_, dy);
       SeamError e;
       e.left_right = mx / std::max(dx, tiny);
       e.top_bottom = my / std::max(dy, tiny);
@@ -208,6 +202,14 @@ class SeamSums {
   }
 
  private:
+  // The mean squared mismatch of a seam from its sum per pixel of the tile's side (`sum`) at
+  // `start`, `size` long, in an image `full` long. A tile as wide (high) as the image has no
+  // neighbour column (row) to be judged against: its seam is the step across its wrap beyond
+  // a typical step `typical` (0 when the image tiles).
+  static double mean_mismatch(double sum, int start, int size, int full, double typical) {
+    if (size == full) return std::max(0.0, sum - typical);
+    return sum / double((start >= 1) + (start + size < full));
+  }
   static double sq(double v) {
     return v * v;
   }
