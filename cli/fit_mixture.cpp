@@ -159,11 +159,15 @@ void print_written(const std::string& out, const btfgmm::FitOutcome& fit, const 
                                         human_seconds(log.seconds),
                                         human_seconds(model.settings.seconds), start.iteration + 1)
                           : human_seconds(log.seconds);
+  // The refinement for the prediction moves the parameters off EM's maximum: L falls.
+  const char* after = fit.refinement ? "of the parameters written, after the refinement for the "
+                                       "prediction, which trades L for the prediction's error"
+                                     : "after the last M-step";
   fmt::print(stderr,
-             "wrote {}: M = {} ({} dropped), L = {:.6f} after the last M-step{}, {} bytes, "
+             "wrote {}: M = {} ({} dropped), L = {:.6f} {}{}, {} bytes, "
              "compression 1:{:.1f} (paper's count) / 1:{:.1f} (file), fit in {}\n",
-             out, model.mixture.size(), model.settings.dropped, model.settings.log_likelihood, last,
-             fit.file_bytes, model.compression_ratio_paper(),
+             out, model.mixture.size(), model.settings.dropped, model.settings.log_likelihood,
+             after, last, fit.file_bytes, model.compression_ratio_paper(),
              model.compression_ratio_file(fit.file_bytes), time);
   if (const auto& r = fit.refinement) {
     fmt::print(stderr,

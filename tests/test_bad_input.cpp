@@ -532,6 +532,14 @@ TEST_F(BadInput, NumbersOutOfRangeAndMethodsByPrefixInPlainWords) {
   EXPECT_FALSE(fs::exists(p("m.btfgmm")));
 }
 
+TEST_F(BadInput, AnOptionTheMethodDoesNotTakeIsRefusedByName) {
+  generate();
+  const CliRun r = run("fit " + p("btf") + " --method pca-btf --iterations 5 -o " + p("m.btfgmm"));
+  expect_refused(r, {"--iterations cannot apply to --method pca-btf, which does not take it",
+                     "--iterations is taken by gm lpca plm-rf"});
+  EXPECT_FALSE(fs::exists(p("m.btfgmm")));
+}
+
 // ---- limits before allocation (the library) --------------------------------------------
 
 using btfgmm::test::error_of;

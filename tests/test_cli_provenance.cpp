@@ -151,8 +151,11 @@ TEST_F(CliProvenance, FitOutputLogAndQuiet) {
   EXPECT_EQ(its[2]["iteration"], 3);
   const nlohmann::json info = nlohmann::json::parse(run("info --json " + p("c.btfgmm")).out);
   EXPECT_EQ(its[2]["log_likelihood"], info["provenance"]["iterations"][2]["log_likelihood"]);
-  // The written L is after the last M-step; the line says which L the last iteration showed.
-  EXPECT_TRUE(has(r.err, "after the last M-step (iteration 3 showed L = ")) << r.err;
+  // The written L is of the refined parameters, said so; the line says which L the last
+  // iteration showed.
+  EXPECT_TRUE(has(r.err, "of the parameters written, after the refinement for the prediction, "
+                         "which trades L for the prediction's error (iteration 3 showed L = "))
+      << r.err;
   // CSV by the name; -q prints nothing at all.
   r = fit("-M 4 --iterations 3 -q -o " + p("q.btfgmm") + " --log " + p("log.csv"));
   ASSERT_EQ(r.status, 0);

@@ -162,6 +162,27 @@ std::unique_ptr<Representation> fit_mixture(const FitOptions& o, const std::stri
   return std::make_unique<GaussianMixture>(std::move(fit.model));
 }
 
+// A new fit of another method than the mixture refuses the options its method does not take,
+// naming the methods that take each (`levels` has its own message, in method_settings; the
+// mixture's refusals of `clusters` and `degree` are mixture_fit_request's).
+void refuse_options_not_taken(std::span<const std::string_view> given, std::string_view method,
+                              FitRoute route) {
+  if (route != FitRoute::kNew || method == kMixtureMethod) return;
+  const std::vector<std::string_view> not_taken =
+      refused_fields(given, [method](const FitOptionRule& r) {
+        return r.methods != kMixtureMethod && r.field != "levels" && !r.takes(method);
+      });
+  if (not_taken.empty()) return;
+  std::string takers;
+  for (const std::string_view f : not_taken)
+    takers += fmt::format("{}{} is taken by {}", takers.empty() ? "" : "; ", option_name(f),
+                          fit_option_rule(f).methods);
+  throw Error(Error::Kind::kArgument,
+              fmt::format("{} cannot apply to {} {}, which does not take {} ({}); leave {} out",
+                          named_fields(not_taken), option_name("method"), method,
+                          it_or_them(not_taken), takers, it_or_them(not_taken)));
+}
+
 }  // namespace
 
 bool FitOptionRule::takes(std::string_view method) const {
@@ -213,6 +234,7 @@ void check_fit_options(std::span<const std::string_view> given, std::string_view
                             "({} gm) only; leave {} out",
                             named_fields(mixture_only), option_name("method"), method,
                             option_name("method"), it_or_them(mixture_only)));
+  refuse_options_not_taken(given, method, route);
   const std::vector<std::string_view> off_route = refused_fields(
       given, [route](const FitOptionRule& r) { return (r.routes & unsigned(route)) == 0; });
   if (!off_route.empty())
