@@ -69,7 +69,7 @@ class GridWeights {
     exponent_parts(s, mix, pixel_.data(), light_.data(), view_.data());
   }
 
-  // The samples visit_pixel visits, over every pixel.
+  // The samples visit_light visits, over every pixel.
   std::size_t samples() const {
     std::size_t n = 0;
     const std::size_t first = s_.first_light * s_.views, end = s_.light_end() * s_.views;
@@ -85,7 +85,7 @@ class GridWeights {
     return (p + j) % stride_ == 0 && !(training_ && validation_sample(p, j, s_.lights * s_.views));
   }
 
-  // Per-thread working space of visit_pixel.
+  // Per-thread working space of visit_light.
   struct Scratch {
     std::vector<double> pl, t;
     SampleWeights w;
@@ -95,25 +95,20 @@ class GridWeights {
     }
   };
 
-  // Calls visit(const SampleWeights&) for every sample (of the stride) of pixel p, lights
-  // then views in increasing order.
+  // visit(const SampleWeights&) for the kept views of pixel p and light l, whose pixel and
+  // light terms sc.pl holds.
   template <class Visit>
-  void visit_pixel(std::size_t p, Scratch& sc, Visit&& visit) const {
+  void visit_views(std::size_t p, std::size_t l, Scratch& sc, Visit&& visit) const {
     SampleWeights& w = sc.w;
-    for (std::size_t l = s_.first_light; l < s_.light_end(); ++l) {  // the lights held
-      const double* a = &pixel_[p * m_];
-      const double* b = &light_[l * m_];
-      for (std::size_t k = 0; k < m_; ++k) sc.pl[k] = a[k] + b[k];
-      for (std::size_t v = 0; v < s_.views; ++v) {
-        if (!kept(p, l * s_.views + v)) continue;
-        weights(sc.pl.data(), &view_[v * m_], sc.t.data(), w);
-        w.pixel = p;
-        w.light = l;
-        w.view = v;
-        w.index = s_.index(p, l, v);
-        for (int c = 0; c < 3; ++c) w.residual[c] = s_.residual_of(p, l, v, c);
-        visit(w);
-      }
+    for (std::size_t v = 0; v < s_.views; ++v) {
+      if (!kept(p, l * s_.views + v)) continue;
+      weights(sc.pl.data(), &view_[v * m_], sc.t.data(), w);
+      w.pixel = p;
+      w.light = l;
+      w.view = v;
+      w.index = s_.index(p, l, v);
+      for (int c = 0; c < 3; ++c) w.residual[c] = s_.residual_of(p, l, v, c);
+      visit(w);
     }
   }
 
@@ -121,7 +116,6 @@ class GridWeights {
   // process holds), pixels then views in increasing order.
   template <class Visit>
   void visit_light(std::size_t l, Scratch& sc, Visit&& visit) const {
-    SampleWeights& w = sc.w;
     for (std::size_t p = 0; p < s_.pixels(); ++p) {
       const double* a = &pixel_[p * m_];
       const double* b = &light_[l * m_];
@@ -129,16 +123,7 @@ class GridWeights {
       for (std::size_t v = 0; v < s_.views && !any; ++v) any = kept(p, l * s_.views + v);
       if (!any) continue;
       for (std::size_t k = 0; k < m_; ++k) sc.pl[k] = a[k] + b[k];
-      for (std::size_t v = 0; v < s_.views; ++v) {
-        if (!kept(p, l * s_.views + v)) continue;
-        weights(sc.pl.data(), &view_[v * m_], sc.t.data(), w);
-        w.pixel = p;
-        w.light = l;
-        w.view = v;
-        w.index = s_.index(p, l, v);
-        for (int c = 0; c < 3; ++c) w.residual[c] = s_.residual_of(p, l, v, c);
-        visit(w);
-      }
+      visit_views(p, l, sc, visit);
     }
   }
 
@@ -160,35 +145,6 @@ class GridWeights {
       for (std::ptrdiff_t i = 0; i < lights; ++i) {
         visit_light(s_.first_light + std::size_t(i), sc,
                     [&](const SampleWeights& w) { visit(w, acc); });
-#pragma omp ordered
-        reduce(acc);
-      }
-    }
-  }
-
-  // Pixels a chunk of reduce_in_chunks holds: the chunks, and so the order of every sum, are
-  // the same for any number of threads.
-  static constexpr std::size_t kChunkPixels = 8;
-
-  // Sums over every sample (of the stride) with `threads` threads (0: all cores), the same
-  // bit for bit with any number of them: the pixels in fixed chunks of kChunkPixels, each
-  // thread with its own accumulator acc = make(); visit(const SampleWeights&, acc) for every
-  // sample of a chunk, then reduce(acc) for that chunk, in chunk order and one thread at a
-  // time (reduce adds acc into the totals and clears it).
-  template <class Make, class Visit, class Reduce>
-  void reduce_in_chunks(int threads, Make&& make, Visit&& visit, Reduce&& reduce) const {
-    const std::size_t pixels = s_.pixels();
-    const std::ptrdiff_t chunks = std::ptrdiff_t((pixels + kChunkPixels - 1) / kChunkPixels);
-    const int n_threads = threads > 0 ? threads : omp_get_max_threads();
-#pragma omp parallel num_threads(n_threads)
-    {
-      auto acc = make();
-      Scratch sc(m_);
-#pragma omp for ordered schedule(dynamic, 1)
-      for (std::ptrdiff_t c = 0; c < chunks; ++c) {
-        const std::size_t end = std::min(pixels, std::size_t(c + 1) * kChunkPixels);
-        for (std::size_t p = std::size_t(c) * kChunkPixels; p < end; ++p)
-          visit_pixel(p, sc, [&](const SampleWeights& w) { visit(w, acc); });
 #pragma omp ordered
         reduce(acc);
       }
