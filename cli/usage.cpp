@@ -5,7 +5,7 @@
 
 #include <algorithm>
 #include <charconv>
-#include <regex>
+#include <optional>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -77,20 +77,42 @@ std::string mistyped_name(const CLI::App& app, int argc, const char* const* argv
   return "";
 }
 
+// CLI11's range check reads "--components: Value 0 not in range 1 to 100000"; its parts, or
+// nothing when the message is another. (Parsed by hand: GCC 12's std::regex trips
+// -Wmaybe-uninitialized under the sanitizers.)
+namespace {
+
+struct RangeMessage {
+  std::string option, value, low, high;
+};
+
+std::optional<RangeMessage> parse_range_message(const std::string& what) {
+  const std::size_t colon = what.find(": Value ");
+  const std::size_t range = what.rfind(" not in range ");
+  if (colon == std::string::npos || range == std::string::npos || range < colon) return {};
+  const std::size_t bounds = range + std::string_view(" not in range ").size();
+  const std::size_t to = what.find(" to ", bounds);
+  if (what.rfind("-", 0) != 0 || to == std::string::npos) return {};
+  const std::size_t value = colon + std::string_view(": Value ").size();
+  return RangeMessage{.option = what.substr(0, colon),
+                      .value = what.substr(value, range - value),
+                      .low = what.substr(bounds, to - bounds),
+                      .high = what.substr(to + 4)};
+}
+
+}  // namespace
+
 std::string out_of_range(const CLI::ParseError& err) {
-  // CLI11's range check: "--components: Value 0 not in range 1 to 100000".
-  static const std::regex range(R"(^(-[-\w]+): Value (.*) not in range (\S+) to (\S+)$)");
-  std::smatch m;
-  const std::string what = err.what();
-  if (!std::regex_match(what, m, range)) return "";
-  const std::string value = m[2], low = m[3], high = m[4];
+  const std::optional<RangeMessage> m = parse_range_message(err.what());
+  if (!m) return "";
   double number = 0;
-  const auto parsed = std::from_chars(value.data(), value.data() + value.size(), number);
-  const bool numeric = parsed.ec == std::errc() && parsed.ptr == value.data() + value.size();
-  const bool whole = low.find('.') == std::string::npos && high.find('.') == std::string::npos;
-  return fmt::format("{} {}: {}; give {} from {} to {}", m[1].str(), value,
+  const char* end = m->value.data() + m->value.size();
+  const auto parsed = std::from_chars(m->value.data(), end, number);
+  const bool numeric = parsed.ec == std::errc() && parsed.ptr == end;
+  const bool whole = m->low.find('.') == std::string::npos && m->high.find('.') == std::string::npos;
+  return fmt::format("{} {}: {}; give {} from {} to {}", m->option, m->value,
                      numeric ? "out of range" : "not a number",
-                     whole ? "a whole number" : "a number", low, high);
+                     whole ? "a whole number" : "a number", m->low, m->high);
 }
 
 }  // namespace btfgmm::cli
