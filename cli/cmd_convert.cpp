@@ -29,6 +29,12 @@ void run_convert(const ConvertCommandOptions& o) {
   c.exposure = o.exposure;
   const btfgmm::Tile tile = tile_option(src, o.tile, o.quiet);
   check_output_folder(o.out, o.overwrite);
+  const btfgmm::ConvertPlan plan = btfgmm::plan_conversion(src, tile, o.out, c);
+  if (!o.quiet)
+    fmt::print(stderr, "convert: {} {} images of {}x{} pixels to {}, {} of pixels before {}\n",
+               plan.images, btfgmm::to_string(plan.format), plan.tile.width, plan.tile.height,
+               o.out, btfgmm::human_bytes(double(plan.pixel_bytes)),
+               plan.format == btfgmm::ImageFormat::kExr ? "the EXR headers" : "compression");
   StopOnSignals signals;
   c.stopped = [] { return g_stop.load(); };
   const auto t0 = Clock::now();
@@ -38,8 +44,10 @@ void run_convert(const ConvertCommandOptions& o) {
       const int tenth = int(fraction * 10.0 + 1e-9);
       if (tenth <= printed || fraction >= 1.0 || seconds_since(t0) < 1.0) return;
       printed = tenth;
-      fmt::print(stderr, "convert: {:>3.0f}% of the images, {} so far\n", 100.0 * fraction,
-                 human_seconds(seconds_since(t0)));
+      const double elapsed = seconds_since(t0);
+      fmt::print(stderr, "convert: {:>3.0f}% of the images, {} so far, about {} left\n",
+                 100.0 * fraction, human_seconds(elapsed),
+                 human_seconds(elapsed * (1.0 - fraction) / fraction));
     };
   const btfgmm::ConvertResult r = btfgmm::convert_to_utia(src, tile, o.out, c);
   if (!o.quiet)

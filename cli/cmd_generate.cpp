@@ -69,9 +69,14 @@ void run_generate(const GenerateArguments& o) {
   btfgmm::check_generate_config(c);  // before anything is announced or written
   check_output_folder(o.out, o.overwrite);
   const auto t0 = Clock::now();
-  if (!o.quiet)
-    fmt::print(stderr, "generating {} ({}x{} pixels, {} lights x {} views, seed {})...\n",
-               c.material, c.size, c.size, c.lights.size(), c.views.size(), c.seed);
+  if (!o.quiet) {
+    const double images = double(c.lights.size() * c.views.size());
+    fmt::print(stderr,
+               "generating {} ({}x{} pixels, {} lights x {} views: {:.0f} images, {} of "
+               "pixels held in memory, seed {})...\n",
+               c.material, c.size, c.size, c.lights.size(), c.views.size(), images,
+               btfgmm::human_bytes(images * c.size * c.size * 3 * sizeof(float)), c.seed);
+  }
   GenerateProgress progress;
   if (!o.quiet)
     c.progress = [&](double fraction, std::string_view) { progress("rendering", fraction); };

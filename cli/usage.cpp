@@ -109,7 +109,8 @@ std::string out_of_range(const CLI::ParseError& err) {
   const char* end = m->value.data() + m->value.size();
   const auto parsed = std::from_chars(m->value.data(), end, number);
   const bool numeric = parsed.ec == std::errc() && parsed.ptr == end;
-  const bool whole = m->low.find('.') == std::string::npos && m->high.find('.') == std::string::npos;
+  const bool whole =
+      m->low.find('.') == std::string::npos && m->high.find('.') == std::string::npos;
   return fmt::format("{} {}: {}; give {} from {} to {}", m->option, m->value,
                      numeric ? "out of range" : "not a number",
                      whole ? "a whole number" : "a number", m->low, m->high);

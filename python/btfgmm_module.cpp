@@ -35,13 +35,10 @@ PyObject* bases(PyObject* a, PyObject* b) {
 }
 
 // The options a library message names (core/text.hpp, option_name), as this module's messages
-// spell them: as the command's flags, "--refine-steps" for the field refine_steps (the keyword
-// of fit()), so that a message reads the same from the command and from Python and the
-// documentation quotes one text.
+// spell them: as fit()'s keywords, which are the library's field names ("refine_steps"), so that
+// a Python caller is told about the argument it passed, not about a command-line flag.
 std::string option_spelling(std::string_view field) {
-  std::string flag = "--" + std::string(field);
-  std::replace(flag.begin(), flag.end(), '_', '-');
-  return flag;
+  return std::string(field);
 }
 
 std::string message_text(std::string_view message) {

@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "btfgmm/core/error.hpp"
+#include "btfgmm/io/convert.hpp"
 #include "btfgmm/io/dataset.hpp"
 #include "btfgmm/io/image.hpp"
 #include "btfgmm/io/ubo_btf.hpp"
@@ -244,10 +245,19 @@ TEST(UboBtfCli, ConvertReproducesTheImagesInfoListsTheDirectionsAndAFitRuns) {
             ASSERT_NEAR(back.at(lb, vb, x, y, c), want, 0.02 * want);
           }
     }
+  // What it will write, said before it starts (pixels before compression: 3 bytes each in PNG)
+  const ConvertPlan exr_plan = plan_conversion(original, {2, 3, 5, 4}, dir / "exr", {});
+  EXPECT_EQ(exr_plan.images, 20u);
+  EXPECT_EQ(exr_plan.format, ImageFormat::kExr);
+  EXPECT_EQ(exr_plan.pixel_bytes, 20u * 5 * 4 * 12);
   r = test::run_cli(
-      "convert " + file.string() + " --format png --exposure 0.5 -q -o " + (dir / "png").string(),
+      "convert " + file.string() + " --format png --exposure 0.5 -o " + (dir / "png").string(),
       "ubo");
   ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_NE(r.err.find("convert: 20 PNG images of 16x16 pixels to " + (dir / "png").string() +
+                       ", 15.0 KiB of pixels before compression"),
+            std::string::npos)
+      << r.err;
   const Btf png = BtfSource::open(dir / "png").load();
   EXPECT_EQ(png.format(), SampleFormat::kLdr8);
   EXPECT_EQ(png.width(), 16);

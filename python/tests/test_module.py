@@ -153,7 +153,7 @@ def test_fit_takes_the_objective_and_the_pyramid_levels(work, tmp_path):
         btfgmm.fit(work["btf"], tile=(0, 0, 6, 6), components=5, objective="likelyhood")
     car = btfgmm.fit(work["btf"], method="3d-car", clusters=2, levels=1)
     assert car.provenance["settings"]["levels"] == "1"
-    with pytest.raises(btfgmm.Error, match="--levels 3"):
+    with pytest.raises(btfgmm.Error, match="levels 3"):
         btfgmm.fit(work["btf"], method="3d-car", clusters=2, levels=3)
 
 
@@ -216,8 +216,10 @@ def test_errors_are_exceptions_with_the_library_messages(work, tmp_path):
         model.decode((30, 45), (0, 0), size=0)
     with pytest.raises(btfgmm.ArgumentError, match="did you mean 'gm'"):
         btfgmm.fit(work["btf"], method="gmm")
-    with pytest.raises(ValueError, match="--epsilon cannot apply to --method pca-btf"):
+    with pytest.raises(ValueError, match="epsilon cannot apply to method pca-btf"):
         btfgmm.fit(work["btf"], method="pca-btf", epsilon=0.01)
+    with pytest.raises(ValueError, match="refine_seconds cannot apply to method pca-btf"):
+        btfgmm.fit(work["btf"], method="pca-btf", refine_seconds=5)
     with pytest.raises(ValueError, match="exists; give a new name or pass overwrite=True"):
         model.save(work["pca"])
     with pytest.raises(TypeError):

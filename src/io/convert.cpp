@@ -70,13 +70,27 @@ std::string conversion_note(const BtfInfo& info, const Tile& t, ImageFormat f, d
 
 }  // namespace
 
+ConvertPlan plan_conversion(const BtfSource& source, const Tile& tile, const fs::path& folder,
+                            const ConvertOptions& o) {
+  const BtfInfo& info = source.info();
+  ConvertPlan p;
+  p.format = output_format(info, o, folder);
+  p.tile = tile.or_whole(info.width, info.height);
+  p.images = info.lights.size() * info.views.size();
+  const std::uint64_t per_pixel = p.format == ImageFormat::kExr ? 12 : 3;
+  p.pixel_bytes = std::uint64_t(p.images) * std::uint64_t(p.tile.width) *
+                  std::uint64_t(p.tile.height) * per_pixel;
+  return p;
+}
+
 ConvertResult convert_to_utia(const BtfSource& source, const Tile& tile, const fs::path& folder,
                               const ConvertOptions& o) {
   const BtfInfo& info = source.info();
+  const ConvertPlan plan = plan_conversion(source, tile, folder, o);
   ConvertResult r;
-  r.format = output_format(info, o, folder);
-  r.tile = tile.empty() ? Tile{0, 0, info.width, info.height} : tile;
-  const std::size_t nv = info.views.size(), n = info.lights.size() * nv;
+  r.format = plan.format;
+  r.tile = plan.tile;
+  const std::size_t nv = info.views.size(), n = plan.images;
   const std::vector<fs::path> view_dirs = make_view_folders(info.views, folder);
   const char* ext = r.format == ImageFormat::kExr ? ".exr" : ".png";
   const double scale = png_scale(info, o.exposure);

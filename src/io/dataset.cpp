@@ -450,7 +450,7 @@ namespace {
 
 // The tile asked for (empty: the whole image), checked to lie inside the images.
 Tile tile_inside(const BtfInfo& info, const Tile& tile) {
-  const Tile t = tile.empty() ? Tile{0, 0, info.width, info.height} : tile;
+  const Tile t = tile.or_whole(info.width, info.height);
   if (t.x < 0 || t.y < 0 || std::int64_t(t.x) + t.width > info.width ||
       std::int64_t(t.y) + t.height > info.height)
     throw Error(Error::Kind::kArgument,

@@ -166,7 +166,7 @@ Image exr_decode(std::span<const std::uint8_t> bytes, const std::string& name, c
   // refused before InputFile allocates for it.
   const ImageHeader hdr = exr_header(bytes, name);
   {
-    const Tile t = rows.empty() ? Tile{0, 0, hdr.width, hdr.height} : rows;
+    const Tile t = rows.or_whole(hdr.width, hdr.height);
     check_tile(t, hdr.width, hdr.height, name);
     limits::check_memory(double(t.width) * t.height * 12.0 + double(hdr.width) * kExrBand * 12.0,
                          fmt::format("decoding {} ({}x{} pixels)", name, hdr.width, hdr.height),
@@ -177,7 +177,7 @@ Image exr_decode(std::span<const std::uint8_t> bytes, const std::string& name, c
     MemoryIStream stream(bytes, name);
     Imf::InputFile file(stream, 0);
     const ExrLayout l = exr_layout(file.header(), name);
-    const Tile t = rows.empty() ? Tile{0, 0, l.width, l.height} : rows;
+    const Tile t = rows.or_whole(l.width, l.height);
     check_tile(t, l.width, l.height, name);
 
     // The tile's scanlines, full width, a band at a time; the tile's columns are kept. The

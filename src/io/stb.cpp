@@ -185,7 +185,7 @@ ImageHeader stb_header(std::span<const std::uint8_t> bytes, ImageFormat f,
 Image stb_decode(std::span<const std::uint8_t> bytes, ImageFormat f, const std::string& name,
                  const Tile& rows) {
   const ImageHeader hdr = stb_header(bytes, f, name);
-  const Tile t = rows.empty() ? Tile{0, 0, hdr.width, hdr.height} : rows;
+  const Tile t = rows.or_whole(hdr.width, hdr.height);
   check_tile(t, hdr.width, hdr.height, name);
   if (f == ImageFormat::kPng) check_png_complete(bytes, name);
   if (f == ImageFormat::kJpeg) check_jpeg_complete(bytes, name);

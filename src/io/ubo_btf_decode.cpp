@@ -105,7 +105,7 @@ Rgb remove_cosine(const UboBtfHeader& h, std::size_t light, Rgb v) {
 }
 
 Tile checked_tile(const UboBtfHeader& h, const std::string& name, const Tile& tile) {
-  const Tile t = tile.empty() ? Tile{0, 0, h.width, h.height} : tile;
+  const Tile t = tile.or_whole(h.width, h.height);
   if (t.x < 0 || t.y < 0 || std::int64_t(t.x) + t.width > h.width ||
       std::int64_t(t.y) + t.height > h.height)
     throw Error(Error::Kind::kArgument,
@@ -118,7 +118,7 @@ Tile checked_tile(const UboBtfHeader& h, const std::string& name, const Tile& ti
 }  // namespace
 
 double UboBtf::tile_bytes(const Tile& tile) const {
-  const Tile t = tile.empty() ? Tile{0, 0, header_.width, header_.height} : tile;
+  const Tile t = tile.or_whole(header_.width, header_.height);
   double bytes = 0;
   for (const Matrix& m : matrices_) bytes += double(m.components) * t.width * t.height * 4.0;
   return bytes;

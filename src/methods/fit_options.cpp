@@ -208,11 +208,16 @@ const FitOptionRule& fit_option_rule(std::string_view field) {
 
 std::vector<std::string_view> given_fields(const FitOptions& o) {
   const std::pair<std::string_view, bool> set[] = {
-      {"method", o.method != kMixtureMethod}, {"components", o.components != 0},
-      {"clusters", o.clusters != 0},          {"degree", o.degree != 0},
-      {"iterations", o.iterations != 0},      {"levels", o.levels != 0},
-      {"epsilon", o.epsilon.has_value()},     {"precision", !o.precision.empty()},
-      {"objective", !o.objective.empty()},    {"refine_steps", o.refine_steps != 0},
+      {"method", o.method != kMixtureMethod},
+      {"components", o.components != 0},
+      {"clusters", o.clusters != 0},
+      {"degree", o.degree != 0},
+      {"iterations", o.iterations != 0},
+      {"levels", o.levels != 0},
+      {"epsilon", o.epsilon.has_value()},
+      {"precision", !o.precision.empty()},
+      {"objective", !o.objective.empty()},
+      {"refine_steps", o.refine_steps != 0},
       {"refine_seconds", o.refine_seconds != 0},
   };
   std::vector<std::string_view> out;
@@ -318,8 +323,7 @@ std::unique_ptr<Representation> fit_representation(const FitOptions& o, const st
   s.stop = progress.stop;
   if (!source) source = std::make_shared<const BtfSource>(BtfSource::open(input));
   const BtfInfo& info = source->info();
-  const Btf btf = source->load(
-      tile.empty() ? Tile{.x = 0, .y = 0, .width = info.width, .height = info.height} : tile);
+  const Btf btf = source->load(tile.or_whole(info.width, info.height));
   if (progress.started)
     progress.started(FitTile{.lights = btf.lights(),
                              .views = btf.views(),

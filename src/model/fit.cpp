@@ -76,7 +76,7 @@ LoadedTile load_tile(const FitRequest& r) {
   LoadedTile t;
   t.data.source = {r.input, info.width, info.height};
   t.samples = read_sample_set(*src, r.tile, &t.data.content_hash, r.processes);
-  const Tile origin = r.tile.empty() ? Tile{0, 0, info.width, info.height} : r.tile;
+  const Tile origin = r.tile.or_whole(info.width, info.height);
   t.tile = {info.lights, info.views, origin, info.format};
   return t;
 }

@@ -288,7 +288,7 @@ SampleSet shared_frame(const BtfInfo& info, const Tile& t,
 SampleSet read_sample_set(const BtfSource& source, const Tile& tile, std::uint64_t* content_hash,
                           std::shared_ptr<Communicator> processes) {
   const BtfInfo& info = source.info();
-  const Tile t = tile.empty() ? Tile{0, 0, info.width, info.height} : tile;
+  const Tile t = tile.or_whole(info.width, info.height);
   SampleSet s = shared_frame(info, t, processes);
   const bool bytes = info.format == SampleFormat::kLdr8;
   check_sample_memory(s, bytes ? 4.0 : 25.0);

@@ -28,6 +28,10 @@ struct Tile {
   int x = 0, y = 0, width = 0, height = 0;
   bool empty() const { return width <= 0 || height <= 0; }
   bool operator==(const Tile&) const = default;
+  // This tile, or where it is empty (none asked), the whole image of width x height.
+  Tile or_whole(int image_width, int image_height) const {
+    return empty() ? Tile{.x = 0, .y = 0, .width = image_width, .height = image_height} : *this;
+  }
 };
 
 class Btf {

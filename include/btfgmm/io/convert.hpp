@@ -3,6 +3,7 @@
 // .btf file, also the tile's factors), so a whole set converts in memory proportional to a tile.
 #pragma once
 
+#include <cstdint>
 #include <filesystem>
 #include <functional>
 #include <optional>
@@ -34,6 +35,20 @@ struct ConvertResult {
   Tile tile;
   std::string note;  // what conversion.txt holds: source, tile, format, exposure
 };
+
+// What a conversion will write, known before it starts: the images, their format and tile,
+// and the bytes of their pixels before compression (PNG: 3 per pixel; EXR: 12, 32-bit float),
+// a bound the files stay near (PNG compresses, EXR adds a header of a few hundred bytes).
+struct ConvertPlan {
+  std::size_t images = 0;
+  ImageFormat format = ImageFormat::kPng;
+  Tile tile;
+  std::uint64_t pixel_bytes = 0;
+};
+
+// Throws as convert_to_utia for a bad format or exposure (naming `folder`).
+ConvertPlan plan_conversion(const BtfSource& source, const Tile& tile,
+                            const std::filesystem::path& folder, const ConvertOptions& options);
 
 // Write the tile (empty: the whole image) of every image of `source` under `folder` (created if
 // needed) as tvTTT_pvPPP/tlTTT_plPPP_tvTTT_pvPPP.png or .exr, and a conversion.txt that states
