@@ -33,7 +33,10 @@ void run_view(const ViewArguments& o) {
     loaded.push_back(load_representation(path));
     models.push_back({fs::path(path).filename().string(), loaded.back().get()});
   }
-  const std::vector<ViewerFile> files = viewer_files(models);
+  const std::vector<ViewerFile> files = viewer_files(
+      models,
+      "btfgmm render MODEL --mesh {mesh} --light {light} --camera {camera} --repeat {repeat} "
+      "--fov {fov} --exposure {exposure} --size {size} --tolerance 0 -o out.png");
   fs::create_directories(o.out);
   for (const ViewerFile& f : files) write_text(fs::path(o.out) / f.name, f.text, "viewer page");
   if (!o.quiet)

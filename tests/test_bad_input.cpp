@@ -473,8 +473,8 @@ TEST_F(BadInput, CompareArgumentsSwapped) {
                   "btfgmm info " + p("m.btfgmm") + " names it"});
   // A model given to fit as its data: the way to go on fitting it is shown.
   expect_refused(run("fit " + p("m.btfgmm") + " -o " + p("n.btfgmm")),
-                 {"is a btfgmm model, not a BTF",
-                  "'btfgmm fit --continue " + p("m.btfgmm") + " --iterations N -o NEW.btfgmm'"});
+                 {"is a btfgmm model, not a BTF", "'btfgmm fit --continue " + p("m.btfgmm") +
+                                                      " --iterations N --output NEW.btfgmm'"});
   // The BTF twice: the second is no model, and the fit that makes one is shown.
   expect_refused(run("compare " + p("btf") + " " + p("btf")),
                  {"is a folder of images, not a model", "btfgmm fit " + p("btf") + " -o"});

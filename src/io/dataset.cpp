@@ -73,8 +73,9 @@ Error not_a_btf(const fs::path& path) {
     return Error(Error::Kind::kArgument,
                  fmt::format("{0} is a btfgmm model, not a BTF; give the data it was fitted to "
                              "(btfgmm info {0} names it), or go on fitting the model with "
-                             "'btfgmm fit --continue {0} --iterations N -o NEW.btfgmm'",
-                             path.string()));
+                             "'btfgmm fit {1} {0} {2} N {3} NEW.btfgmm'",
+                             path.string(), option_name("continue"), option_name("iterations"),
+                             option_name("output")));
   const std::optional<FileKind> kind = identify_file(head);
   using C = FileKind::Class;
   const std::string fix =

@@ -7,6 +7,7 @@
 
 #include "btfgmm/core/error.hpp"
 #include "btfgmm/core/limits.hpp"
+#include "btfgmm/core/text.hpp"
 #include "btfgmm/io/dataset.hpp"
 #include "btfgmm/io/ubo_btf.hpp"
 #include "io/parallel_each.hpp"
@@ -87,7 +88,7 @@ void BtfSource::read_ubo_tiles(const Tile& tile, std::size_t first, std::size_t 
   limits::check_memory(ubo.tile_bytes(tile),
                        fmt::format("the factors of a {}x{} tile of {}", tile.width, tile.height,
                                    info_.path.string()),
-                       "give a smaller tile (--tile X,Y,W,H)");
+                       fmt::format("give a smaller tile ({} X,Y,W,H)", option_name("tile")));
   const UboTileFactors factors = ubo.load_tile(tile);
   const std::size_t nv = info_.views.size();
   const std::size_t floats = std::size_t(factors.tile.width) * factors.tile.height * 3;

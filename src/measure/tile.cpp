@@ -15,6 +15,7 @@
 #include <tuple>
 
 #include "btfgmm/core/error.hpp"
+#include "btfgmm/core/text.hpp"
 #include "btfgmm/io/image.hpp"
 #include "btfgmm/measure/tile.hpp"
 #include "io/zip.hpp"
@@ -298,10 +299,10 @@ TileSearchResult find_seamless_tile(const BtfSource& source, const TileSearchCon
   const BtfInfo& info = source.info();
   if (info.layout == Layout::kUboBtf)
     throw Error(Error::Kind::kArgument,
-                fmt::format("{}: the seamless-tile search (--tile auto:WxH) reads whole images, "
+                fmt::format("{}: the seamless-tile search ({} auto:WxH) reads whole images, "
                             "and a Bonn .btf file's are decoded per tile; give the tile as "
-                            "--tile X,Y,W,H",
-                            info.path.string()));
+                            "{} X,Y,W,H",
+                            info.path.string(), option_name("tile"), option_name("tile")));
   check_config(config, info.width, info.height);
   SeamSums sums(info.width, info.height, config);
   const std::size_t nv = info.views.size();

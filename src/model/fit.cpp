@@ -162,11 +162,12 @@ void check_supported_components(const FitConfig& c, std::size_t samples) {
   const std::size_t most = supported_components(samples);
   if (c.components <= most) return;
   throw Error(Error::Kind::kArgument,
-              fmt::format("--components {}: the tile's {} samples support at most {} components "
+              fmt::format("{} {}: the tile's {} samples support at most {} components "
                           "for the objective prediction (one per {} training samples, "
-                          "docs/ALGORITHM.md); give at most {}, a larger tile, or --objective "
+                          "docs/ALGORITHM.md); give at most {}, a larger tile, or {} "
                           "likelihood",
-                          c.components, samples, most, kSamplesPerComponent, most));
+                          option_name("components"), c.components, samples, most,
+                          kSamplesPerComponent, most, option_name("objective")));
 }
 
 // Whether this process writes the fit's files: process 0 of a fit over several.

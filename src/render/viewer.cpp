@@ -113,10 +113,11 @@ std::string viewer_model_script(const std::string& name, const Representation& m
   return viewer_model_script(name, model.size_text(), model.frame(), shader);
 }
 
-std::vector<ViewerFile> viewer_files(const std::vector<ViewerModel>& models) {
+std::vector<ViewerFile> viewer_files(const std::vector<ViewerModel>& models,
+                                     const std::string& cpu_command) {
   if (models.empty())
     throw Error(Error::Kind::kArgument, "the viewer needs at least one model; give a .btfgmm");
-  std::string models_js;
+  std::string models_js = "var BTFGMM_CPU_COMMAND = " + js_string(cpu_command) + ";\n";
   for (const ViewerModel& m : models)
     models_js += viewer_model_script(m.name, *m.model, export_shader(*m.model));
   std::string meshes_js = "var BTFGMM_MESHES = window.BTFGMM_MESHES || [];\n";

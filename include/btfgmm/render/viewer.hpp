@@ -25,8 +25,12 @@ struct ViewerModel {
 
 // The page's files: index.html, viewer.js, meshes.js (the built-in meshes: sphere, cloth,
 // plane, cylinder) and models.js (every model's shader and parameters). Throws as
-// export_shader() for a method without a shader, Error(kArgument) for no model.
-std::vector<ViewerFile> viewer_files(const std::vector<ViewerModel>& models);
+// export_shader() for a method without a shader, Error(kArgument) for no model. The page shows
+// `cpu_command`, the front end's command that renders the same view on the CPU, with {mesh},
+// {light}, {camera}, {repeat}, {fov}, {exposure} and {size} replaced by the view's settings
+// (empty: none shown).
+std::vector<ViewerFile> viewer_files(const std::vector<ViewerModel>& models,
+                                     const std::string& cpu_command = "");
 
 // The script that adds one model to the page's list (models.js holds one a model): its name,
 // method, size, tile, sample format and shader.

@@ -260,6 +260,18 @@ void main() {
   }
 
   // ---- the page ----------------------------------------------------------------------------
+  // The command that renders the same view on the CPU, as the program that wrote the page
+  // spells it (models.js: BTFGMM_CPU_COMMAND, with {mesh}, {light}, ... for the view's
+  // settings); none where it gave none.
+  const cpuTemplate = window.BTFGMM_CPU_COMMAND || "";
+  const cpuCommand = cpuTemplate && (() => {
+    const fill = {
+      mesh: state.mesh, light: state.light.map((v) => v.toFixed(1)).join(","),
+      camera: state.camera.map((v) => v.toFixed(1)).join(","), repeat: state.repeat,
+      fov: state.fov, exposure: state.exposure, size: state.size.join("x"),
+    };
+    return cpuTemplate.replace(/\{(\w+)\}/g, (all, key) => (key in fill ? fill[key] : all));
+  });
   let average = 0;
   function describe(ms) {
     const m = models[state.model];
@@ -267,11 +279,7 @@ void main() {
     $("frame-time").textContent = `frame ${ms.toFixed(1)} ms (mean ${average.toFixed(1)} ms), ` +
       `${canvas.width}\u00d7${canvas.height}`;
     $("info").innerHTML = `${m.name}: ${m.method}, ${m.size}, tile ${m.tile[0]}\u00d7` +
-      `${m.tile[1]}. The same on the CPU: <code>btfgmm render MODEL --mesh ${state.mesh} ` +
-      `--light ${state.light.map((v) => v.toFixed(1)).join(",")} --camera ` +
-      `${state.camera.map((v) => v.toFixed(1)).join(",")} --repeat ${state.repeat} --fov ` +
-      `${state.fov} --exposure ${state.exposure} --size ${state.size.join("x")} ` +
-      `--tolerance 0 -o out.png</code>`;
+      `${m.tile[1]}.` + (cpuCommand ? ` The same on the CPU: <code>${cpuCommand()}</code>` : "");
   }
   let pending = false;
   function redraw() {
