@@ -7,6 +7,7 @@
 #include <string>
 
 #include "btfgmm/core/btf.hpp"
+#include "btfgmm/core/text.hpp"
 #include "btfgmm/io/dataset.hpp"
 #include "btfgmm/measure/tile.hpp"
 
@@ -18,7 +19,8 @@ struct TileOption {
 };
 
 // Throws Error(kArgument) naming `option` and the value, and showing the form.
-TileOption parse_tile_option(const std::string& text, const std::string& option = "--tile");
+TileOption parse_tile_option(const std::string& text,
+                             const std::string& option = option_name("tile"));
 
 struct TileChoice {
   Tile tile;                               // empty: the whole image
@@ -28,6 +30,6 @@ struct TileChoice {
 // The tile a --tile value asks for in `source`: the given one, or the search's choice (read
 // from `source` as find_seamless_tile does). Throws as parse_tile_option and the search.
 TileChoice choose_tile(const BtfSource& source, const std::string& text,
-                       const std::string& option = "--tile");
+                       const std::string& option = option_name("tile"));
 
 }  // namespace btfgmm
