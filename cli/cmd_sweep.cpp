@@ -2,6 +2,7 @@
 // the tile; a table, sweep.json and an HTML report of the rate-distortion curves.
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
@@ -14,6 +15,7 @@
 #include "btfgmm/btfgmm.hpp"
 #include "btfgmm/core/text.hpp"
 #include "btfgmm/io/files.hpp"
+#include "btfgmm/measure/compare_data.hpp"
 #include "btfgmm/measure/sweep.hpp"
 #include "btfgmm/report/report.hpp"
 #include "cli_util.hpp"
@@ -92,31 +94,37 @@ SweepRequest sweep_request(const SweepArguments& o) {
 
 // ---- progress on stderr --------------------------------------------------------------------
 
-// "[3/12] gm components 30: ..." with the time since the sweep began; the method's own
-// progress at most every 2 seconds.
+// "[3/12] gm components 30: ..." with the time since the sweep began and, once a setting is
+// done, the sweep's share done and the time its rest should take; the method's own progress
+// at most every 2 seconds.
 class ProgressPrinter {
  public:
   void operator()(const SweepProgress& p) {
     using Event = SweepProgress::Event;
     const std::string head =
         fmt::format("[{}/{}] {} {}", p.index + 1, p.count, p.method, p.settings);
-    const std::string at = human_seconds(p.elapsed_seconds);
+    const std::string at = std::isnan(p.remaining_seconds)
+                               ? fmt::format("{} elapsed", human_seconds(p.elapsed_seconds))
+                               : fmt::format("{} elapsed; sweep {:.0f}% done, about {} left",
+                                             human_seconds(p.elapsed_seconds),
+                                             100.0 * double(p.done) / double(p.count),
+                                             human_seconds(p.remaining_seconds));
     switch (p.event) {
       case Event::kStart:
-        fmt::print(stderr, "{}: fitting ({} elapsed)\n", head, at);
+        fmt::print(stderr, "{}: fitting ({})\n", head, at);
         last_ = p.elapsed_seconds;
         break;
       case Event::kFit:
         if (p.elapsed_seconds - last_ < 2.0) break;
-        fmt::print(stderr, "{}: {} {:.0f}% ({} elapsed)\n", head, p.stage, 100.0 * p.fraction, at);
+        fmt::print(stderr, "{}: {} {:.0f}% ({})\n", head, p.stage, 100.0 * p.fraction, at);
         last_ = p.elapsed_seconds;
         break;
       case Event::kMeasure:
         break;
       case Event::kDone: {
         const ModelComparison& c = *p.result;
-        fmt::print(stderr, "{}: {}, 1:{:.1f} (file), PSNR {} dB, fit {}, decode {} ({} elapsed)\n",
-                   head, c.model->size_text(), c.model->file_ratio(c.file_bytes),
+        fmt::print(stderr, "{}: {}, 1:{:.1f} (file), PSNR {} dB, fit {}, decode {} ({})\n", head,
+                   c.model->size_text(), c.model->file_ratio(c.file_bytes),
                    db_text(c.quality.psnr_db), human_seconds(c.fit_seconds),
                    human_seconds(c.decode_seconds), at);
         break;
@@ -136,6 +144,30 @@ class ProgressPrinter {
 
 // ---- the table and sweep.json --------------------------------------------------------------
 
+// The synthesis models' texture statistics against the data (what `compare` prints for
+// them): per image, each channel's mean and deviation, the autocorrelation at lags 1-4 and
+// the luminance histogram, averaged over the images.
+void print_texture_table(const SweepOutcome& s) {
+  if (std::none_of(s.models.begin(), s.models.end(),
+                   [](const ModelComparison& c) { return c.texture.has_value(); }))
+    return;
+  fmt::print(
+      "synthesis models, texture statistics against the data (per image, averaged): |mean "
+      "difference| and |deviation difference| (levels), deviation ratio model/data (lowest, "
+      "highest), |autocorrelation difference| at lags 1-{}, histogram distance (0 to 1)\n",
+      kTextureLags);
+  fmt::print("{:<8} {:<14} {:>10} {:>10} {:>14} {:>10} {:>10}\n", "method", "size", "mean diff",
+             "dev diff", "dev ratio", "autocorr", "histogram");
+  for (const ModelComparison& c : s.models)
+    if (c.texture) {
+      const TextureStatistics& t = *c.texture;
+      fmt::print("{:<8} {:<14} {:>10.2f} {:>10.2f} {:>14} {:>10.3f} {:>10.3f}\n", c.model->method(),
+                 c.model->size_text(), t.mean_difference, t.deviation_difference,
+                 fmt::format("{:.2f}-{:.2f}", t.lowest_deviation_ratio, t.highest_deviation_ratio),
+                 t.autocorrelation_difference, t.histogram_distance);
+    }
+}
+
 void print_table(const SweepOutcome& s) {
   fmt::print("{:<8} {:<14} {:>10} {:>10} {:>10} {:>10} {:>8} {:>8} {:>7} {:>8} {:>8}  {}\n",
              "method", "size", "values", "bytes", "C.R. paper", "C.R. file", "RMSE", "PSNR dB",
@@ -148,8 +180,9 @@ void print_table(const SweepOutcome& s) {
         fmt::format("1:{:.1f}", c.model->paper_ratio()),
         fmt::format("1:{:.1f}", c.model->file_ratio(c.file_bytes)), c.quality.rmse,
         ProgressPrinter::db_text(c.quality.psnr_db), c.quality.ssim, c.fit_seconds,
-        c.decode_seconds, s.pareto[k] ? "*" : "");
+        c.decode_seconds, c.texture ? "synthesis" : (s.pareto[k] ? "*" : ""));
   }
+  print_texture_table(s);
   if (!s.models.empty()) {
     const BtfQuality& b = s.models[0].mean_brdf_only;
     fmt::print(
@@ -158,9 +191,13 @@ void print_table(const SweepOutcome& s) {
   }
   for (const SkippedSetting& k : s.skipped)
     fmt::print("skipped  {} {}: {}\n", k.method, k.settings, k.message);
+  if (!s.not_iterated.empty())
+    fmt::print("--iterations: {} take none (closed-form or fixed fits), fitted as usual\n",
+               fmt::join(s.not_iterated, ", "));
   fmt::print(
       "* on the Pareto front: no model has a higher PSNR at the same or a higher "
-      "compression ratio of its file\n");
+      "compression ratio of its file (a synthesis is not on it: it makes new texture, which "
+      "no pixel-wise PSNR measures)\n");
 }
 
 nlohmann::json model_json(const SweepOutcome& s, std::size_t k, bool kept) {
@@ -179,6 +216,8 @@ nlohmann::json model_json(const SweepOutcome& s, std::size_t k, bool kept) {
   j["fit_seconds"] = c.fit_seconds;
   j["decode_seconds"] = c.decode_seconds;
   j["pareto"] = bool(s.pareto[k]);
+  j["pixelwise_meaningful"] = !c.texture;
+  if (c.texture) j["texture_statistics"] = texture_json(*c.texture);
   return j;
 }
 
@@ -189,7 +228,8 @@ nlohmann::json sweep_json(const SweepArguments& o, const Btf& tile, const SweepO
   j["lights"] = tile.lights().size();
   j["views"] = tile.views().size();
   j["bit_depth"] = to_string(tile.format());
-  j["precision"] = o.precision.empty() ? "smallest" : o.precision;
+  j["precision"] = o.precision.empty() ? "fit's default" : o.precision;
+  j["not_iterated"] = s.not_iterated;
   j["seed"] = o.seed;
   j["settings"] = s.total;
   j["stopped"] = s.stopped;
@@ -260,10 +300,10 @@ void run_sweep_command(const SweepArguments& o) {
   ro.command = "sweep";
   ro.data = &tile;
   ro.skipped = s.skipped;
-  ro.note =
-      fmt::format("{} of {} settings fitted, factors stored as {}, seed {}{}", s.models.size(),
-                  s.total, o.precision.empty() ? "q8 (gm: f16)" : o.precision, o.seed,
-                  s.stopped ? " (interrupted)" : "");
+  ro.note = fmt::format(
+      "{} of {} settings fitted, factors stored as {}, seed {}{}", s.models.size(), s.total,
+      o.precision.empty() ? "as fit writes them by default (gm: compact)" : o.precision, o.seed,
+      s.stopped ? " (interrupted)" : "");
   write_report(o.out, o.btf, s.models, ro);
   if (!o.quiet)
     fmt::print(stderr, "wrote {} and {}{}\n", (fs::path(o.out) / "index.html").string(),
@@ -304,17 +344,18 @@ void register_sweep_command(CLI::App& app, Commands& commands) {
       ->required();
   auto* methods = c->add_option("--methods", opt->methods, methods_help());
   c->add_option("--precision", opt->precision,
-                "Factors stored as f16, f32 or q8 (8 bits; the Gaussian mixture takes f16 or f32 "
-                "and is skipped with q8); default: each method's smallest, q8 (gm: f16), so "
-                "that files are compared as small as their precision allows");
+                "Factors stored as f16, f32 or q8 (8 bits; the Gaussian mixture's q8 is its "
+                "compact format); default: the file fit writes for each method (gm: compact), "
+                "so that the files compared are the files a user gets");
   c->add_option("--components", opt->components,
                 "Sizes fitted instead of each method's ladder, comma-separated: mixture "
                 "components M (gm), eigen-images (pca-btf, pca-rf), components per cluster (lpca)")
       ->delimiter(',')
       ->check(CLI::Range(std::size_t(1), std::size_t(100000)));
   c->add_option("--iterations", opt->iterations,
-                "Iterations of every fit (gm: EM, lpca: rounds, plm-rf: Levenberg-Marquardt "
-                "steps); default: each method's")
+                "Iterations of every fit that iterates (gm: EM, lpca: rounds, plm-rf: "
+                "Levenberg-Marquardt steps; the other methods fit as usual, named in the table); "
+                "default: each method's")
       ->check(CLI::Range(1, 100000));
   c->add_option("--seed", opt->seed, "Seed of every fit's random start")->capture_default_str();
   c->add_option("--threads", opt->threads, "Threads (0: all cores)")

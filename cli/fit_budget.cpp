@@ -42,8 +42,9 @@ void print_candidates(const BudgetChoice& c, std::uint64_t budget) {
   const BudgetCandidate& b = c.candidates[c.chosen];
   fmt::print(stderr,
              "chose {} {}: {} bytes of the {} budgeted, the highest PSNR ({} dB) of the "
-             "candidates that fit (each method's ladder of sizes, as sweep fits it, walked up "
-             "while its file fits)\n",
+             "candidates that fit (each method's largest size whose file fits: its ladder of "
+             "sizes, as sweep fits it, walked up, then the sizes between predicted and "
+             "confirmed; every file as fit writes it by default)\n",
              b.method, b.size, b.file_bytes, budget, db_text(b.psnr_db));
 }
 
@@ -88,9 +89,10 @@ void run_budget_fit(const BudgetFitArguments& o) {
   write_file_atomically(o.out, c.file, "model file");
   if (o.quiet) return;
   print_candidates(c, r.budget);
-  fmt::print(stderr, "wrote {}: {} {}, {} bytes, compression 1:{:.1f} (file)\n", o.out,
-             c.model->method(), c.model->size_text(), c.file.size(),
-             c.model->file_ratio(c.file.size()));
+  fmt::print(
+      stderr, "wrote {}: {} {}, {} bytes, compression 1:{:.1f} (file), {} candidates in {}\n",
+      o.out, c.model->method(), c.model->size_text(), c.file.size(),
+      c.model->file_ratio(c.file.size()), c.candidates.size(), human_seconds(seconds_since(t0)));
 }
 
 }  // namespace btfgmm::cli

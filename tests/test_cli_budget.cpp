@@ -12,6 +12,7 @@
 #include <sstream>
 #include <string>
 
+#include "btfgmm/btfgmm.hpp"
 #include "test_util.hpp"
 
 namespace btfgmm {
@@ -115,13 +116,27 @@ TEST(BudgetCli, ChoosesTheBestCandidateThatFits) {
   r = run("info " + d + "/b.btfgmm");
   EXPECT_NE(r.out.find("chosen by --budget 2880 bytes"), std::string::npos) << r.out;
 
-  // A budget below every file names the smallest possible (a 4-digit budget's note, as above).
+  // Below every rung: the sizes under the smallest are searched (the mixture down to M = 1).
   r = run("fit " + d + "/btf --budget 1000 --iterations 2 -o " + d + "/c.btfgmm");
+  ASSERT_EQ(r.status, 0) << r.err;
+  for (const Row& row : candidates(r.err)) least = std::min(least, row.bytes);
+  EXPECT_LT(least, 1000u) << r.err;
+  // A budget below every method's smallest file names it truly: that budget fits, one less not.
+  r = run("fit " + d + "/btf --budget 500 --iterations 2 -o " + d + "/c.btfgmm --overwrite");
   EXPECT_EQ(r.status, 1);
-  EXPECT_NE(r.err.find(fmt::format("the smallest possible for this tile is {} bytes", least)),
-            std::string::npos)
-      << r.err;
-  EXPECT_NE(r.err.find(fmt::format("give --budget {} or more", least)), std::string::npos);
+  const std::string named = "the smallest possible for this tile is ";
+  const std::size_t at = r.err.find(named);
+  ASSERT_NE(at, std::string::npos) << r.err;
+  const std::uint64_t smallest = std::stoull(r.err.substr(at + named.size()));
+  EXPECT_NE(r.err.find("(gm M = 1)"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find(fmt::format("give --budget {} or more", smallest)), std::string::npos);
+  r = run(fmt::format("fit {}/btf --budget {} --iterations 2 -o {}/c.btfgmm --overwrite", d,
+                      smallest, d));
+  EXPECT_EQ(r.status, 0) << r.err;
+  EXPECT_EQ(fs::file_size(d + "/c.btfgmm"), smallest);
+  fs::remove(d + "/c.btfgmm");
+  r = run(fmt::format("fit {}/btf --budget {} --iterations 2 -o {}/c.btfgmm", d, smallest - 1, d));
+  EXPECT_EQ(r.status, 1) << r.err;
   EXPECT_FALSE(fs::exists(d + "/c.btfgmm"));
   // The budget chooses the method and size: naming either is an error naming both.
   r = run("fit " + d + "/btf --budget 5000 --method pca-btf -o " + d + "/c.btfgmm");
@@ -136,6 +151,62 @@ TEST(BudgetCli, ChoosesTheBestCandidateThatFits) {
   r = run("fit " + d + "/btf --ratio 4 --budget 100 -o " + d + "/c.btfgmm");
   EXPECT_EQ(r.status, 1);
   EXPECT_NE(r.err.find("--budget and --ratio"), std::string::npos) << r.err;
+  fs::remove_all(dir);
+}
+
+// The mixture's size in a row's size text, "M = 37".
+std::size_t mixture_size(const Row& row) {
+  return std::stoul(row.size.substr(row.size.find('=') + 1));
+}
+
+// Within a budget that a plain fit's file fits, for a size of the ladder (the default fit,
+// M = 600, is the mixture's top rung), the choice is at least as good; and the mixture's
+// search ends on the largest M whose file fits: M + 1 was tried and is over.
+TEST(BudgetCli, NeverWorseThanAPlainFitAndFindsTheLargestSizeThatFits) {
+  EXPECT_EQ(find_method("gm").ladder(ModelFrame{}).back().components,
+            mixture_config(0, 0, 1, 0).components);
+  const fs::path dir =
+      fs::temp_directory_path() / ("btfgmm_budget_default_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  const std::string d = dir.string();
+  // 10 x 10 x 6 lights x 5 views: 3000 samples, up to M = 46 (30, a rung, is the plain fit).
+  test::CliRun r =
+      run("generate --material corduroy --size 10 --seed 4 --lights rings:0/1,30/5 "
+          "--views rings:0/1,45/4 -o " +
+          d + "/btf");
+  ASSERT_EQ(r.status, 0) << r.err;
+  r = run("fit " + d + "/btf -M 30 --iterations 2 -o " + d + "/default.btfgmm");
+  ASSERT_EQ(r.status, 0) << r.err;
+  r = run("compare " + d + "/btf " + d + "/default.btfgmm --json");
+  ASSERT_EQ(r.status, 0) << r.err;
+  const double default_psnr = nlohmann::json::parse(r.out)["psnr_db"].get<double>();
+  // The chosen file carries the choice's note: room for it.
+  const std::uint64_t budget = fs::file_size(dir / "default.btfgmm") + 200;
+  r = run(fmt::format("fit {}/btf --budget {} --iterations 2 -o {}/b.btfgmm", d, budget, d));
+  ASSERT_EQ(r.status, 0) << r.err;
+  const std::vector<Row> rows = candidates(r.err);
+  const Row* chosen = nullptr;
+  for (const Row& row : rows)
+    if (row.mark == "chosen") chosen = &row;
+  ASSERT_NE(chosen, nullptr) << r.err;
+  EXPECT_GE(std::stod(chosen->psnr), std::floor(default_psnr * 100) / 100) << r.err;
+
+  // A budget between the mixture's rungs: its largest M that fits, the next one over.
+  r = run(fmt::format("fit {}/btf --budget {} --iterations 2 -o {}/c.btfgmm", d, budget / 2, d));
+  ASSERT_EQ(r.status, 0) << r.err;
+  std::size_t largest_fit = 0, least_over = 0;
+  for (const Row& row : candidates(r.err)) {
+    if (row.method != "gm") continue;
+    const std::size_t m = mixture_size(row);
+    if (row.mark != "over the budget")
+      largest_fit = std::max(largest_fit, m);
+    else if (least_over == 0 || m < least_over)
+      least_over = m;
+  }
+  ASSERT_GT(largest_fit, 0u) << r.err;
+  ASSERT_GT(least_over, 0u) << r.err;
+  EXPECT_EQ(least_over, largest_fit + 1) << r.err;
   fs::remove_all(dir);
 }
 

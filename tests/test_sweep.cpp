@@ -144,9 +144,9 @@ TEST(Sweep, WritesModelFilesThatLoadAsTheModelsMeasured) {
   fs::remove_all(dir);
 }
 
-// Unless asked, each method is stored as small as it can be: q8, the mixture in f16; an
-// asked encoding applies to every method.
-TEST(Sweep, StoresEachMethodAtItsSmallestUnlessAsked) {
+// Unless asked, each method is stored as `fit` stores it by default (the mixture compact, the
+// others their fit_encoding); an asked encoding applies to every method.
+TEST(Sweep, StoresEachMethodAsFitWritesItUnlessAsked) {
   const Btf tile = tiny_tile();
   SweepRequest r;
   r.methods = {"gm", "pca-btf"};
@@ -160,11 +160,47 @@ TEST(Sweep, StoresEachMethodAtItsSmallestUnlessAsked) {
     ASSERT_EQ(s.models.size(), 2u);
     const auto& gm = dynamic_cast<const GaussianMixture&>(*s.models[0].model);
     const auto& pca = dynamic_cast<const PcaBtf&>(*s.models[1].model);
-    EXPECT_EQ(gm.model().precision, asked ? Precision::kF32 : Precision::kF16);
-    EXPECT_EQ(pca.encoding(), asked ? FactorEncoding::kF32 : FactorEncoding::kQ8);
+    EXPECT_EQ(gm.model().precision, asked ? Precision::kF32 : Precision::kCompact);
+    EXPECT_EQ(pca.encoding(),
+              asked ? FactorEncoding::kF32 : default_file_encoding(find_method("pca-btf")));
   }
-  EXPECT_EQ(find_method("gm").fit_encoding, FactorEncoding::kF32);
-  EXPECT_EQ(find_method("pca-btf").fit_encoding, FactorEncoding::kQ8);
+  EXPECT_EQ(default_file_encoding(find_method("pca-btf")), find_method("pca-btf").fit_encoding);
+}
+
+// --iterations applies to the methods that iterate; the others fit as usual (not dropped) and
+// are named. A synthesis is measured (its texture statistics) but never on the pixel-wise
+// front, and each method has its own colour in the chart.
+TEST(Sweep, IterationsDropNoSettingAndASynthesisIsNotOnTheFront) {
+  SweepRequest r;
+  r.methods = {"gm", "ptm-rf", "gmrf"};
+  r.ladders["gm"] = {components(2)};
+  MethodSettings two_subspaces;
+  two_subspaces.clusters = 2;
+  two_subspaces.levels = 1;
+  r.ladders["gmrf"] = {two_subspaces};
+  r.iterations = 2;
+  GenerateConfig g;  // ptm-rf needs 6 lights or more, at two elevations
+  g.material = "knit";
+  g.size = 8;
+  g.lights = DirectionSet::parse("rings:0/1,30/3,60/3");
+  g.views = DirectionSet::parse(kViews);
+  g.supersample = 1;
+  const SweepOutcome s = run_sweep(generate(g), r);
+  ASSERT_EQ(s.models.size(), 3u) << (s.skipped.empty() ? "" : s.skipped[0].message);
+  EXPECT_TRUE(s.skipped.empty());
+  EXPECT_EQ(s.not_iterated, (std::vector<std::string>{"ptm-rf", "gmrf"}));
+  EXPECT_EQ(s.models[1].model->method(), "ptm-rf");
+  ASSERT_TRUE(s.models[2].model->synthesises());
+  ASSERT_TRUE(s.models[2].texture.has_value());
+  EXPECT_GT(s.models[2].texture->data_deviation[0], 0.0);
+  EXPECT_FALSE(s.pareto[2]);
+  EXPECT_FALSE(s.models[0].texture.has_value());
+  const Chart c = rate_distortion_chart(s.models);
+  std::vector<std::string> colours;
+  for (const ChartSeries& series : c.series)
+    if (series.line && series.label.starts_with("g")) colours.push_back(series.colour);
+  ASSERT_EQ(colours.size(), 2u);  // gm's and gmrf's curves
+  EXPECT_NE(colours[0], colours[1]);
 }
 
 TEST(Sweep, ChecksTheRequestAndStopsOnTheFlag) {
@@ -249,8 +285,24 @@ TEST(Sweep, RateDistortionChartHasALogAxisAndACurvePerMethod) {
     std::string xy;
     while (in >> xy) {
       const double x = std::stod(xy.substr(0, xy.find(',')));
-      EXPECT_GE(x, 62.0);
-      EXPECT_LE(x, c.width - 14.0);
+      EXPECT_GE(x, 66.0);
+      EXPECT_LE(x, c.width - 30.0);
+    }
+  }
+  // Every label within the canvas: a centred one's half width (6.5 px a character at the
+  // chart's 11 px font, an upper bound) on either side of its x, a right-aligned one's width
+  // to its left.
+  for (std::size_t at = svg.find("<text x=\""); at != std::string::npos;
+       at = svg.find("<text x=\"", at + 1)) {
+    const double x = std::stod(svg.substr(at + 9));
+    const std::size_t open = svg.find('>', at), close = svg.find("</text>", at);
+    const double width = 6.5 * double(close - open - 1);
+    const std::string tag = svg.substr(at, open - at);
+    if (tag.find("text-anchor=\"middle\"") != std::string::npos) {
+      EXPECT_GE(x - width / 2, 0.0) << svg.substr(at, close - at);
+      EXPECT_LE(x + width / 2, c.width) << svg.substr(at, close - at);
+    } else if (tag.find("text-anchor=\"end\"") != std::string::npos) {
+      EXPECT_GE(x - width, 0.0) << svg.substr(at, close - at);
     }
   }
 }
@@ -335,6 +387,28 @@ TEST(SweepCli, WritesTheTableJsonAndReport) {
   EXPECT_NE(html.find("One image decoded by each method"), std::string::npos);
   EXPECT_NE(html.find("Not fitted"), std::string::npos);
   EXPECT_TRUE(fs::exists(dir / "out/methods_original.png"));
+
+  // The sweep measures the file `fit` writes by default for the same setting: the same
+  // encoding and payload, byte for byte, and the same size but for the provenance's text
+  // (the input's path, the times).
+  r = run(sweep + "--methods pca-btf --components 2 --keep-models -o " + d + "/pca");
+  ASSERT_EQ(r.status, 0) << r.err;
+  const std::string fit = "fit " + d + "/btf --tile 0,0,8,8 ";
+  for (const auto& [args, swept] :
+       {std::pair<std::string, std::string>{"-M 4 --iterations 2", "out/models/gm-M4.btfgmm"},
+        {"--method pca-btf --components 2", "pca/models/pca-btf-c2.btfgmm"}}) {
+    r = run(fit + args + " -o " + d + "/fitted.btfgmm --overwrite");
+    ASSERT_EQ(r.status, 0) << r.err;
+    const auto fitted = load_representation(dir / "fitted.btfgmm");
+    const auto from_sweep = load_representation(dir / swept);
+    EXPECT_EQ(fitted->encoding(), from_sweep->encoding()) << args;
+    EXPECT_EQ(fitted->file_flags(), from_sweep->file_flags()) << args;
+    EXPECT_EQ(fitted->payload(), from_sweep->payload()) << args;
+    // The rest is the provenance: the command's fit logs more of its run.
+    const double fitted_bytes = double(fs::file_size(dir / "fitted.btfgmm")),
+                 swept_bytes = double(fs::file_size(dir / swept));
+    EXPECT_NEAR(swept_bytes, fitted_bytes, 512.0) << args;
+  }
 
   // Errors: an unknown method (with the nearest name), no method, a folder in use.
   r = run(sweep + "--methods gm,gn -o " + d + "/other");

@@ -67,6 +67,120 @@ std::vector<const MethodInfo*> budget_methods(const BudgetRequest& r) {
   return out;
 }
 
+// The one size (components, clusters, degree) in which two settings of a ladder differ, or
+// null when none or several do (then no setting lies between them).
+using SizeField = std::size_t MethodSettings::*;
+SizeField varying_size(const MethodSettings& a, const MethodSettings& b) {
+  SizeField out = nullptr;
+  for (SizeField f :
+       {&MethodSettings::components, &MethodSettings::clusters, &MethodSettings::degree})
+    if (a.*f != b.*f) {
+      if (out) return nullptr;
+      out = f;
+    }
+  return out;
+}
+
+// A setting fitted: its file's bytes (with the choice's note), whether it fits.
+struct Probe {
+  MethodSettings settings;
+  std::uint64_t bytes = 0;
+  bool fits = false;
+};
+
+// The search of one method's sizes: its ladder walked up from the smallest model while the
+// file fits, then, between the largest rung that fits and the first that does not (or below
+// the smallest rung, down to a size of 1), the largest size whose file fits, found by
+// predicting each size's bytes from the two nearest fitted (linear in the size, as every
+// method's parameter count is) and confirming the prediction with the real file.
+class MethodSearch {
+ public:
+  MethodSearch(const Btf& tile, const BudgetRequest& r, const MethodInfo& m, BudgetChoice& out)
+      : tile_(tile), r_(r), m_(m), out_(out) {}
+
+  // The smallest model's file fitted (what nothing_fits names), or null if none was.
+  void run(std::shared_ptr<Representation>& smallest, std::uint64_t& smallest_bytes) {
+    smallest_ = &smallest;
+    smallest_bytes_ = &smallest_bytes;
+    const std::vector<MethodSettings> ladder = m_.ladder(ModelFrame::of(tile_));
+    std::optional<Probe> fits, over;
+    std::size_t over_rung = 0;
+    for (std::size_t k = 0; k < ladder.size() && !over; ++k) {
+      const std::optional<Probe> p = fit(ladder[k]);
+      if (synthesis_) return;
+      if (!p) continue;
+      (p->fits ? fits : over) = p;
+      over_rung = k;
+    }
+    if (!over) return;  // the largest rung fits (or none could be fitted)
+    if (fits) return between(*fits, *over);
+    // The smallest rung is over the budget: sizes below it, down to 1.
+    if (over_rung + 1 >= ladder.size()) return;
+    const SizeField f = varying_size(ladder[over_rung], ladder[over_rung + 1]);
+    if (!f || over->settings.*f <= 1) return;
+    MethodSettings least = over->settings;
+    least.*f = 1;
+    if (const std::optional<Probe> p = fit(least); p && p->fits) between(*p, *over);
+  }
+
+ private:
+  // Between a size that fits and a larger one that does not: the largest that fits.
+  void between(Probe lo, Probe hi) {
+    const SizeField f = varying_size(lo.settings, hi.settings);
+    if (!f) return;
+    int last = 0;        // the end the last fit moved: 1 the one that fits, 2 the other
+    bool twice = false;  // it moved twice in a row: the prediction is off, halve instead
+    while (hi.settings.*f - lo.settings.*f > 1) {
+      const std::size_t a = lo.settings.*f, b = hi.settings.*f;
+      std::size_t v = a + (b - a) / 2;
+      if (hi.bytes > lo.bytes && !twice) {
+        const double per_size = double(hi.bytes - lo.bytes) / double(b - a);
+        v = a + std::size_t(std::floor(double(r_.budget - lo.bytes) / per_size));
+      }
+      MethodSettings s = lo.settings;
+      s.*f = std::clamp(v, a + 1, b - 1);
+      const std::optional<Probe> p = fit(s);
+      if (!p || synthesis_) return;
+      (p->fits ? lo : hi) = *p;
+      twice = (p->fits ? 1 : 2) == last;
+      last = p->fits ? 1 : 2;
+    }
+  }
+
+  // One setting fitted, measured and recorded as a candidate (the best that fits kept).
+  std::optional<Probe> fit(const MethodSettings& s) {
+    std::optional<ModelComparison> c = fit_setting(tile_, r_, m_, s, out_);
+    if (!c) return std::nullopt;
+    if (c->model->synthesises()) {
+      out_.synthesis_methods.push_back(std::string(m_.name));
+      synthesis_ = true;
+      return std::nullopt;
+    }
+    NotedModel n = with_note(*c->model, r_.budget, r_, c->name);
+    const Probe p{s, n.file.size(), n.file.size() <= r_.budget};
+    out_.candidates.push_back({std::string(m_.name), settings_text(s), c->model->size_text(),
+                               p.bytes, c->quality.psnr_db, p.fits});
+    if (!*smallest_ || p.bytes < *smallest_bytes_) {
+      *smallest_ = n.model;
+      *smallest_bytes_ = p.bytes;
+    }
+    if (p.fits && (!out_.model || c->quality.psnr_db > out_.candidates[out_.chosen].psnr_db)) {
+      out_.chosen = out_.candidates.size() - 1;
+      out_.model = std::move(n.model);
+      out_.file = std::move(n.file);
+    }
+    return p;
+  }
+
+  const Btf& tile_;
+  const BudgetRequest& r_;
+  const MethodInfo& m_;
+  BudgetChoice& out_;
+  std::shared_ptr<Representation>* smallest_ = nullptr;
+  std::uint64_t* smallest_bytes_ = nullptr;
+  bool synthesis_ = false;
+};
+
 // No candidate fits: the smallest file possible (`smallest`, with the note of that budget,
 // whose digits count) and its method, or why none was fitted.
 Error nothing_fits(const BudgetChoice& c, const BudgetRequest& r, const Representation* smallest) {
@@ -103,35 +217,11 @@ BudgetChoice choose_within_budget(const Btf& tile, const BudgetRequest& r) {
   if (r.budget == 0)
     throw Error(Error::Kind::kArgument, "fit `budget`: the budget must be at least 1 byte");
   const std::vector<const MethodInfo*> methods = budget_methods(r);
-  const ModelFrame frame = ModelFrame::of(tile);
   BudgetChoice out;
-  bool any = false;
   std::shared_ptr<Representation> smallest;  // the smallest file fitted
   std::uint64_t smallest_bytes = 0;
-  for (const MethodInfo* m : methods)
-    for (const MethodSettings& s : m->ladder(frame)) {  // smallest model first
-      std::optional<ModelComparison> c = fit_setting(tile, r, *m, s, out);
-      if (!c) continue;
-      if (c->model->synthesises()) {
-        out.synthesis_methods.push_back(std::string(m->name));
-        break;
-      }
-      NotedModel n = with_note(*c->model, r.budget, r, c->name);
-      out.candidates.push_back({std::string(m->name), settings_text(s), c->model->size_text(),
-                                n.file.size(), c->quality.psnr_db, n.file.size() <= r.budget});
-      if (!smallest || n.file.size() < smallest_bytes) {
-        smallest = n.model;
-        smallest_bytes = n.file.size();
-      }
-      if (!out.candidates.back().fits) break;  // the larger sizes only grow
-      if (!any || c->quality.psnr_db > out.candidates[out.chosen].psnr_db) {
-        out.chosen = out.candidates.size() - 1;
-        out.model = std::move(n.model);
-        out.file = std::move(n.file);
-        any = true;
-      }
-    }
-  if (!any) throw nothing_fits(out, r, smallest.get());
+  for (const MethodInfo* m : methods) MethodSearch(tile, r, *m, out).run(smallest, smallest_bytes);
+  if (!out.model) throw nothing_fits(out, r, smallest.get());
   return out;
 }
 

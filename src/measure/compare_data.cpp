@@ -103,7 +103,6 @@ void put_model_json(nlohmann::json& j, const Representation& r) {
   }
 }
 
-// A synthesis model's statistics against the data (measure/texture_statistics.hpp).
 nlohmann::json texture_json(const TextureStatistics& t) {
   return {{"data_mean", t.data_mean},
           {"model_mean", t.model_mean},

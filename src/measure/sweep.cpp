@@ -12,6 +12,7 @@
 #include "btfgmm/core/error.hpp"
 #include "btfgmm/core/text.hpp"
 #include "btfgmm/io/files.hpp"
+#include "btfgmm/methods/fit_options.hpp"
 #include "btfgmm/methods/registry.hpp"
 
 namespace btfgmm {
@@ -43,6 +44,11 @@ std::vector<const MethodInfo*> chosen_methods(const SweepRequest& r) {
   return out;
 }
 
+// Whether the method iterates (takes `iterations`).
+bool iterates(const MethodInfo& m) {
+  return fit_option_rule("iterations").takes(m.name);
+}
+
 // Every setting of every chosen method, with the request's encoding, threads and seed.
 std::vector<Setting> sweep_settings(const ModelFrame& frame, const SweepRequest& r) {
   const std::vector<const MethodInfo*> methods = chosen_methods(r);
@@ -60,10 +66,10 @@ std::vector<Setting> sweep_settings(const ModelFrame& frame, const SweepRequest&
     const std::vector<MethodSettings> ladder =
         own != r.ladders.end() ? own->second : m->ladder(frame);
     for (MethodSettings s : ladder) {
-      s.encoding = r.encoding.value_or(m->smallest_encoding);
+      s.encoding = r.encoding.value_or(default_file_encoding(*m));
       s.threads = r.threads;
       s.seed = r.seed;
-      if (r.iterations) s.iterations = r.iterations;
+      if (r.iterations && iterates(*m)) s.iterations = r.iterations;
       s.progress = nullptr;
       s.stop = r.stop;
       out.push_back({m, s, settings_text(s)});
@@ -93,6 +99,7 @@ std::string model_name(const Representation& r, std::set<std::string>& taken) {
 class Reporter {
  public:
   Reporter(const SweepRequest& r, std::size_t count) : r_(r), count_(count) {}
+  std::size_t done = 0;  // settings fitted or skipped
   void operator()(SweepProgress::Event e, const Setting& s, std::size_t index,
                   SweepProgress extra = {}) const {
     if (!r_.progress) return;
@@ -102,6 +109,9 @@ class Reporter {
     extra.count = count_;
     extra.settings = s.text;
     extra.elapsed_seconds = seconds_since(start_);
+    extra.done = done;
+    extra.remaining_seconds =
+        done ? extra.elapsed_seconds / double(done) * double(count_ - done) : std::nan("");
     r_.progress(extra);
   }
 
@@ -168,7 +178,7 @@ SweepOutcome run_sweep(const Btf& tile, const SweepRequest& request) {
   if (!request.model_folder.empty()) create_model_folder(request.model_folder);
   SweepOutcome out;
   out.total = settings.size();
-  const Reporter report(request, settings.size());
+  Reporter report(request, settings.size());
   std::set<std::string> names;
   const DataFingerprint data = fingerprint_of(tile, request.source);
   for (std::size_t k = 0; k < settings.size(); ++k) {
@@ -189,16 +199,21 @@ SweepOutcome run_sweep(const Btf& tile, const SweepRequest& request) {
       }
       if (e.kind() != Error::Kind::kArgument) throw;
       out.skipped.push_back({std::string(s.method->name), s.text, e.what()});
+      ++report.done;
       SweepProgress p;
       p.message = out.skipped.back().message;
       report(SweepProgress::Event::kSkipped, s, k, p);
       continue;
     }
+    ++report.done;
     SweepProgress p;
     p.result = &out.models.back();
     report(SweepProgress::Event::kDone, s, k, p);
   }
   out.pareto = pareto_front(out.models);
+  if (request.iterations)
+    for (const MethodInfo* m : chosen_methods(request))
+      if (!iterates(*m)) out.not_iterated.emplace_back(m->name);
   return out;
 }
 
@@ -225,8 +240,10 @@ std::vector<bool> pareto_front(std::span<const std::array<double, 2>> ratio_psnr
 std::vector<bool> pareto_front(std::span<const ModelComparison> models) {
   std::vector<std::array<double, 2>> points;
   for (const ModelComparison& c : models)
-    points.push_back(
-        {c.file_bytes > 0 ? c.model->file_ratio(c.file_bytes) : std::nan(""), c.quality.psnr_db});
+    points.push_back({c.file_bytes > 0 && !c.model->synthesises()
+                          ? c.model->file_ratio(c.file_bytes)
+                          : std::nan(""),
+                      c.quality.psnr_db});
   return pareto_front(points);
 }
 

@@ -121,8 +121,8 @@ std::string route_reason(FitRoute route, std::string_view source) {
           option_name("continue"), source);
     case FitRoute::kBudget:
       return fmt::format(
-          "with {}: it chooses the method and size itself (each method's ladder "
-          "of sizes, stored as sweep stores them)",
+          "with {}: it chooses the method and size itself (each method's largest "
+          "size whose file fits, stored as fit stores it)",
           option_name(source));
     case FitRoute::kNew:
       break;
@@ -307,8 +307,8 @@ MethodSettings method_settings(const FitOptions& o, const MethodInfo& method) {
   s.iterations = o.iterations;
   s.seed = o.seed;
   s.threads = o.threads;
-  // 8 bits a factor by default: at most 0.1 dB below f32 on generated tiles (docs/METHODS.md).
-  s.encoding = o.precision.empty() ? method.fit_encoding
+  // The method's default file (default_file_encoding), the one sweep and the budget measure.
+  s.encoding = o.precision.empty() ? default_file_encoding(method)
                                    : parse_factor_encoding(o.precision, option_name("precision"));
   return s;
 }

@@ -53,7 +53,7 @@ ThreadScope::~ThreadScope() {
 
 std::vector<std::size_t> ladder_choice(std::span<const double> ratios) {
   std::vector<std::size_t> out;
-  for (double target : {500.0, 150.0, 50.0, 15.0, 5.0}) {
+  for (double target : {500.0, 300.0, 150.0, 80.0, 50.0, 30.0, 15.0, 10.0, 7.0, 5.0}) {
     std::size_t best = 0;
     for (std::size_t i = 1; i < ratios.size(); ++i)
       if (std::abs(std::log(ratios[i] / target)) < std::abs(std::log(ratios[best] / target)))

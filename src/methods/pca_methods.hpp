@@ -39,7 +39,8 @@ class ThreadScope {
 };
 
 // Of candidate models ordered by size (their Table 2 ratios decreasing), the indices of those
-// nearest (in log ratio) to 1:500, 1:150, 1:50, 1:15 and 1:5, smallest model first, each once.
+// nearest (in log ratio) to ten ratios from 1:500 to 1:5 (about 1.5 to 2 times apart), smallest
+// model first, each once.
 std::vector<std::size_t> ladder_choice(std::span<const double> ratios);
 
 std::vector<float> to_floats(std::span<const double> v);

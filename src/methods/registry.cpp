@@ -30,11 +30,11 @@ std::unique_ptr<Representation> read_gaussian_mixture(std::span<const std::uint8
   return std::make_unique<GaussianMixture>(read_mixture_payload(payload, flags, name));
 }
 
-// M from 10 to 1000: the mixture's own ladder (its ratio, as the paper counts it, is set
-// mostly by the mean BRDF on small tiles).
+// M from 10 to 600 (the default fit's), at most twice apart above 30: the mixture's own
+// ladder (its ratio, as the paper counts it, is set mostly by the mean BRDF on small tiles).
 std::vector<MethodSettings> mixture_ladder(const ModelFrame&) {
   std::vector<MethodSettings> out;
-  for (std::size_t m : {10, 30, 100, 300, 600}) {
+  for (std::size_t m : {10, 30, 100, 200, 300, 450, 600}) {
     MethodSettings s;
     s.components = m;
     out.push_back(s);
@@ -68,8 +68,8 @@ const std::vector<MethodInfo>& table() {
        .fit = fit_gaussian_mixture,
        .read = read_gaussian_mixture,
        .ladder = mixture_ladder,
-       .fit_encoding = FactorEncoding::kF32,
-       .smallest_encoding = FactorEncoding::kF16},
+       .fit_encoding = FactorEncoding::kQ8,  // the compact format
+       .smallest_encoding = FactorEncoding::kQ8},
       {.name = "pca-btf",
        .title = "PCA BTF: one PCA of all images",
        .citation = "Koudelka, Magda, Belhumeur, Kriegman 2003",
@@ -172,6 +172,10 @@ std::unique_ptr<Representation> fit_and_record(const MethodInfo& method, const B
   p.fit.runs = 1;
   r->set_provenance(std::move(p));
   return r;
+}
+
+FactorEncoding default_file_encoding(const MethodInfo& method) {
+  return method.fit_encoding;
 }
 
 std::span<const MethodInfo> all_methods() {

@@ -10,6 +10,7 @@
 
 #include "btfgmm/core/error.hpp"
 #include "btfgmm/measure/sweep.hpp"
+#include "btfgmm/methods/registry.hpp"
 #include "btfgmm/model/model_file.hpp"
 #include "report/svg.hpp"
 
@@ -25,7 +26,8 @@ using svg::kPaletteSize;
 
 // The plot area of a chart and its axes: data coordinates to pixels.
 struct PlotArea {
-  static constexpr int left = 62, right = 14, top = 30, bottom = 44;
+  // Room for the tick labels (the last x tick's half, "10000", past the plot) and the labels.
+  static constexpr int left = 66, right = 30, top = 30, bottom = 44;
   int pw = 0, ph = 0;  // the plot's width and height in pixels
   svg::Axis ax, ay;
   double px(double x) const {
@@ -246,6 +248,15 @@ std::vector<std::string> methods_of(std::span<const ModelComparison> models) {
   return methods;
 }
 
+// A method's colour: its place among all methods (methods/registry.hpp), so that every method
+// has its own and keeps it from chart to chart.
+const char* method_colour(std::string_view method, std::size_t fallback) {
+  const std::span<const MethodInfo> all = all_methods();
+  for (std::size_t k = 0; k < all.size(); ++k)
+    if (all[k].name == method) return svg::kPalette[k % svg::kPaletteSize];
+  return svg::kPalette[fallback % svg::kPaletteSize];
+}
+
 // The Pareto front as a step line: f(r) = the highest PSNR at a ratio of r or more, from the
 // front's lowest ratio to its highest (each step drops at the ratio of a model on the front).
 ChartSeries pareto_steps(std::span<const ModelComparison> models) {
@@ -285,13 +296,18 @@ Chart rate_distortion_chart(std::span<const ModelComparison> models) {
   const std::vector<std::string> methods = methods_of(models);
   for (std::size_t k = 0; k < methods.size(); ++k) {
     ChartSeries file, counted;
-    file.label = methods[k];
     file.markers = counted.markers = counted.hollow = true;
     counted.line = false;
-    file.colour = counted.colour = svg::kPalette[k % svg::kPaletteSize];
+    file.colour = counted.colour = method_colour(methods[k], k);
     std::vector<const ModelComparison*> own;
     for (const auto& x : models)
       if (x.model->method() == methods[k]) own.push_back(&x);
+    // A synthesis: shown, dashed, its pixel-wise PSNR marked as measuring nothing (it is not
+    // on the front).
+    const bool synthesis = own.front()->model->synthesises();
+    file.label =
+        synthesis ? methods[k] + " (synthesis: new texture, its PSNR not meaningful)" : methods[k];
+    file.dashed = synthesis;
     for (const ModelComparison* x : own)
       counted.points.push_back({x->model->paper_ratio(), x->quality.psnr_db});
     std::stable_sort(own.begin(), own.end(), [](auto* a, auto* b) {

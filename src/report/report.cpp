@@ -191,6 +191,35 @@ std::string skipped_list(std::span<const SkippedSetting> skipped) {
   return h + "</ul>";
 }
 
+// The synthesis models' texture statistics against the data (measure/texture_statistics.hpp),
+// which measure them where pixel-wise PSNR cannot.
+std::string texture_table(std::span<const ModelComparison> models) {
+  std::string rows;
+  for (const ModelComparison& c : models) {
+    if (!c.texture) continue;
+    const TextureStatistics& t = *c.texture;
+    rows += fmt::format(
+        "<tr><td>{}</td><td>{}</td><td>{:.2f}</td><td>{:.2f}</td><td>{:.2f}&ndash;{:.2f}</td>"
+        "<td>{:.3f}</td><td>{:.3f}</td><td>{:.2f}</td></tr>",
+        escape(c.name), escape(c.model->size_text()), t.mean_difference, t.deviation_difference,
+        t.lowest_deviation_ratio, t.highest_deviation_ratio, t.autocorrelation_difference,
+        t.histogram_distance, t.worst_streak_ratio);
+  }
+  if (rows.empty()) return "";
+  return fmt::format(
+      "<h3>Synthesis models: texture statistics</h3><p class=\"note\">They make new texture "
+      "with the data's statistics, so their pixel-wise PSNR measures nothing (they are not "
+      "on the Pareto front). Per image, against the data image, averaged over the images: "
+      "|mean difference| and |deviation difference| of the channels (levels), the deviation "
+      "ratio model/data (lowest to highest), |normalised autocorrelation difference| at lags "
+      "1&ndash;{}, the luminance histograms' total-variation distance (0 equal, 1 disjoint) "
+      "and the largest row/column mean jump model/data (a streak).</p><div class=\"wide\">"
+      "<table><tr><th>model</th><th>size</th><th>mean diff</th><th>deviation diff</th>"
+      "<th>deviation ratio</th><th>autocorrelation diff</th><th>histogram distance</th>"
+      "<th>streak ratio</th></tr>{}</table></div>",
+      kTextureLags, rows);
+}
+
 std::string models_table(std::span<const ModelComparison> models, const ReportOptions& o) {
   std::string h =
       "<section><h2>Models</h2><div "
@@ -209,6 +238,7 @@ std::string models_table(std::span<const ModelComparison> models, const ReportOp
        "&ldquo;Mean BRDF alone&rdquo;: every pixel its image's mean colour, the model without "
        "its mixture. &#9733;: on the Pareto front (no model has a higher PSNR at the same or a "
        "higher compression ratio of its file). Decode: every image of the tile.</p>";
+  h += texture_table(models);
   h += skipped_list(o.skipped);
   h += "</section>\n";
   return h;

@@ -9,8 +9,8 @@
 namespace btfgmm::svg {
 
 // The colours of a chart's series, in order.
-inline constexpr const char* kPalette[] = {"#2563eb", "#dc2626", "#16a34a", "#9333ea",
-                                           "#ea580c", "#0891b2", "#be185d", "#4d7c0f"};
+inline constexpr const char* kPalette[] = {"#2563eb", "#dc2626", "#16a34a", "#9333ea", "#ea580c",
+                                           "#0891b2", "#be185d", "#4d7c0f", "#a16207", "#475569"};
 inline constexpr std::size_t kPaletteSize = sizeof(kPalette) / sizeof(kPalette[0]);
 
 // `s` with &, <, > and " escaped for HTML text and attributes.

@@ -1,8 +1,12 @@
-// The method and size that decode a tile best within a budget of true file bytes: each
-// pixel-wise method's ladder of sizes (MethodInfo::ladder, as `sweep` fits it) walked from its
-// smallest model up while the file fits, every setting fitted and measured as run_sweep does,
-// and the candidate that fits with the highest PSNR on the tile kept. `btfgmm fit --budget`
-// and `--ratio` format what choose_within_budget returns.
+// The method and size that decode a tile best within a budget of true file bytes, each model
+// stored as `fit` stores it by default (default_file_encoding). For each pixel-wise method, the
+// largest size whose file fits: its ladder of sizes (MethodInfo::ladder, as `sweep` fits it)
+// walked from its smallest model up while the file fits, then the sizes between the last rung
+// that fits and the first that does not (below the smallest rung: down to a size of 1)
+// searched by predicting a size's bytes from the two nearest fitted and confirming with the
+// real file, every setting fitted and measured as run_sweep does; then the candidate that fits
+// with the highest PSNR on the tile kept. `btfgmm fit --budget` and `--ratio` format what
+// choose_within_budget returns.
 #pragma once
 
 #include <atomic>
@@ -42,7 +46,7 @@ struct BudgetCandidate {
 };
 
 struct BudgetChoice {
-  std::vector<BudgetCandidate> candidates;  // in the order fitted
+  std::vector<BudgetCandidate> candidates;  // every setting fitted, in the order fitted
   std::vector<SkippedSetting> skipped;      // settings a method refused for the tile
   // Methods left out: they synthesise new texture, which no pixel-wise PSNR measures.
   std::vector<std::string> synthesis_methods;
@@ -57,7 +61,7 @@ std::string budget_note(std::uint64_t budget);
 
 // Fits and measures the candidates and keeps the best that fits. Throws Error(kArgument) for
 // a budget of 0, for an unknown method (the nearest name), and, when no method's smallest file
-// fits, naming the smallest file possible and its method.
+// fits, naming the smallest file possible (each method's smallest size fitted) and its method.
 BudgetChoice choose_within_budget(const Btf& tile, const BudgetRequest& request);
 
 }  // namespace btfgmm

@@ -33,6 +33,10 @@ void refuse_other_data(const DataCheck& check, bool force, std::string_view acti
 // was fitted and its L.
 void put_model_json(nlohmann::json& j, const Representation& r);
 
+// A synthesis model's texture statistics against the data (measure/texture_statistics.hpp),
+// as `compare --json` and `sweep` write them.
+nlohmann::json texture_json(const TextureStatistics& t);
+
 // One comparison as `btfgmm compare --json` writes it: the data set `btf`, the tile, RMSE,
 // PSNR and SSIM (overall, per channel, the worst and best images), the mean BRDF alone, the
 // compression ratios, the model (put_model_json), the times and `match`.

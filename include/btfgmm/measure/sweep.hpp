@@ -36,11 +36,15 @@ struct SweepProgress {
   };
   Event event = Event::kStart;
   std::string_view method;
-  std::size_t index = 0, count = 0;         // the setting under way (0-based) of all the sweep's
-  std::string_view settings;                // "components 30" (settings_text)
-  double fraction = 0.0;                    // kFit: of the setting's fit, 0..1
-  std::string_view stage;                   // kFit: what the method is doing
-  double elapsed_seconds = 0.0;             // since the sweep began
+  std::size_t index = 0, count = 0;  // the setting under way (0-based) of all the sweep's
+  std::string_view settings;         // "components 30" (settings_text)
+  double fraction = 0.0;             // kFit: of the setting's fit, 0..1
+  std::string_view stage;            // kFit: what the method is doing
+  double elapsed_seconds = 0.0;      // since the sweep began
+  // Of the whole sweep: the settings done (fitted or skipped) and, once one is done, the time
+  // the rest should take at the mean pace so far (NaN before).
+  std::size_t done = 0;
+  double remaining_seconds = 0.0;
   const ModelComparison* result = nullptr;  // kDone
   std::string_view message;                 // kSkipped
 };
@@ -50,12 +54,14 @@ struct SweepRequest {
   std::vector<std::string> methods;  // by name, in the order to fit; empty: every method
   // Settings fitted instead of a method's ladder, by method name (each a method swept).
   std::map<std::string, std::vector<MethodSettings>, std::less<>> ladders;
-  // Set on every setting (a ladder's own values are replaced); unset: each method's
-  // smallest storage (MethodInfo::smallest_encoding: q8, the mixture f16).
+  // Set on every setting (a ladder's own values are replaced); unset: the file `fit` writes
+  // by default (default_file_encoding: the mixture compact, each other method its own).
   std::optional<FactorEncoding> encoding;
   int threads = 0;  // 0: OpenMP's default
   std::uint64_t seed = 1;
-  int iterations = 0;  // not 0: set on every setting (gm: EM; lpca: rounds; plm-rf: LM steps)
+  // Not 0: set on every setting of the methods that iterate (gm: EM; lpca: rounds; plm-rf: LM
+  // steps); the others fit as usual and are named in SweepOutcome::not_iterated.
+  int iterations = 0;
   // Not empty: each model's file is also written there (created if needed), named
   // ModelComparison::name + ".btfgmm".
   std::filesystem::path model_folder;
@@ -81,8 +87,9 @@ struct SweepOutcome {
   std::vector<std::string> settings;  // models[i]'s setting (settings_text)
   std::vector<bool> pareto;           // models[i] is on the Pareto front (pareto_front)
   std::vector<SkippedSetting> skipped;
-  std::size_t total = 0;  // the sweep's settings (fitted, skipped or not reached)
-  bool stopped = false;   // the stop flag ended the sweep early
+  std::vector<std::string> not_iterated;  // methods swept that take no `iterations` (asked)
+  std::size_t total = 0;                  // the sweep's settings (fitted, skipped or not reached)
+  bool stopped = false;                   // the stop flag ended the sweep early
 };
 
 // Fits every setting of the request to `tile` and measures it. Throws Error(kArgument) for
@@ -100,7 +107,8 @@ std::string settings_text(const MethodSettings& s);
 // PSNR for its ratio or any larger). Equal points are all on it; a point with a NaN is not.
 std::vector<bool> pareto_front(std::span<const std::array<double, 2>> ratio_psnr);
 // The same over models by the ratio of their file bytes (Representation::file_ratio) and
-// their PSNR; a model without file bytes (0) is not on it.
+// their PSNR; a model without file bytes (0) is not on it, nor one that synthesises new
+// texture (Representation::synthesises: its pixel-wise PSNR measures nothing).
 std::vector<bool> pareto_front(std::span<const ModelComparison> models);
 
 }  // namespace btfgmm

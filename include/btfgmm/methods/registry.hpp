@@ -33,15 +33,17 @@ struct MethodInfo {
   // Settings that span compression ratios from about 1:5 to 1:500 on a tile of this frame
   // (as Table 2 counts them), smallest model first; `sweep` fits each.
   std::function<std::vector<MethodSettings>(const ModelFrame& frame)> ladder;
-  // The storage `fit` uses when none is asked, and the smallest the method takes: what `sweep`
-  // compares, every file as small as its precision allows (docs/METHODS.md, "Storage"). The
-  // mixture's file has encodings of its own: `fit` writes its compact one unless asked
-  // (mixture_fit_request, methods/fit_options.hpp) and reads no fit_encoding for it; its row
-  // names f32, its exact storage, which `sweep` and `fit --budget` never choose (they store
-  // it at smallest_encoding, f16).
+  // The storage `fit` uses when none is asked (read through default_file_encoding), and the
+  // smallest the method takes (docs/METHODS.md, "Storage"). For the mixture q8 names its
+  // compact format (fit_gaussian_mixture stores q8 so); f16 and f32 are its exact storages.
   FactorEncoding fit_encoding = FactorEncoding::kQ8;
   FactorEncoding smallest_encoding = FactorEncoding::kQ8;
 };
+
+// The encoding of the file `fit` writes for `method` when no precision is asked: the one place
+// that says it. `fit`, `sweep` and `fit --budget` store every model so, so that the sizes they
+// compare are the sizes a user gets (the mixture: its compact format; the others: fit_encoding).
+FactorEncoding default_file_encoding(const MethodInfo& method);
 
 // Every method, the Gaussian mixture ("gm") first.
 std::span<const MethodInfo> all_methods();
