@@ -250,7 +250,7 @@ TEST(Compact, GoldenVersion4FileKeepsDecoding) {
 }
 
 // Version 5's (the mean BRDF in steps of a level, predicted) reads, writes back to the same
-// bytes but the version (version 6 changed the texture models' payloads alone), and predicts
+// bytes but the version (versions 6 and 7 changed the texture models' payloads alone), and predicts
 // what it predicted.
 TEST(Compact, GoldenVersion5FileKeepsDecoding) {
   const std::vector<std::uint8_t> bytes = golden_bytes("golden_v5_gm.btfgmm");

@@ -8,6 +8,7 @@
 #include <functional>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "btfgmm/core/error.hpp"
 #include "btfgmm/io/utia.hpp"
@@ -323,25 +324,23 @@ TEST(TextureMethods, VersionThreeFilesStillReadAndSynthesiseAlike) {
   }
 }
 
-// The same tile and fits written as format version 6 (flags kImageMoments: each image's
-// moments, the subspaces' marginals, the CAR models solved on the torus): they read, hold
-// the same payload when written again, and predict what they predicted when written.
-TEST(TextureMethods, VersionSixFilesStillReadAndSynthesiseAlike) {
-  struct Golden {
-    const char* method;
-    std::uint64_t parameters;
-    float rgb[3];
-  };
-  const Golden golden[] = {{"3d-car", 505, {178.959213f, 167.598068f, 146.792877f}},
-                           {"2d-car", 501, {188.893066f, 176.624924f, 155.234497f}},
-                           {"gmrf", 505, {183.315033f, 171.178253f, 151.666275f}}};
+struct Golden {
+  const char* method;
+  std::uint64_t parameters;
+  float rgb[3];
+};
+
+// Each golden file of `prefix` reads with `flags`, holds the same payload written again, and
+// predicts what it predicted when written.
+void expect_golden_files(const char* prefix, const std::vector<Golden>& golden,
+                         std::uint32_t flags) {
   for (const Golden& g : golden) {
     SCOPED_TRACE(g.method);
-    const auto path = std::filesystem::path(BTFGMM_TEST_DATA) /
-                      (std::string("golden_v6_") + g.method + ".btfgmm");
+    const auto path =
+        std::filesystem::path(BTFGMM_TEST_DATA) / (prefix + std::string(g.method) + ".btfgmm");
     const auto model = load_representation(path);
     EXPECT_EQ(model->method(), g.method);
-    EXPECT_EQ(model->file_flags(), kImageMoments);
+    EXPECT_EQ(model->file_flags(), flags);
     EXPECT_EQ(model->parameter_count(), g.parameters);
     const auto again = read_representation(representation_file_bytes(*model), "again");
     EXPECT_EQ(again->payload(), model->payload());
@@ -350,6 +349,27 @@ TEST(TextureMethods, VersionSixFilesStillReadAndSynthesiseAlike) {
     model->predict({&q, 1}, rgb);
     for (int c = 0; c < 3; ++c) EXPECT_NEAR(rgb[c], g.rgb[c], 1e-3) << c;
   }
+}
+
+// The same tile and fits written as format version 6 (flags kImageMoments: each image's
+// moments, the subspaces' marginals, the CAR models solved on the torus). Written again they
+// are version 7's (flags 24: the same moments, their codes predicted).
+TEST(TextureMethods, VersionSixFilesStillReadAndSynthesiseAlike) {
+  expect_golden_files("golden_v6_",
+                      {{"3d-car", 505, {178.959213f, 167.598068f, 146.792877f}},
+                       {"2d-car", 501, {188.893066f, 176.624924f, 155.234497f}},
+                       {"gmrf", 505, {183.315033f, 171.178253f, 151.666275f}}},
+                      kImageMoments | kPredictedImageMoments);
+}
+
+// The same tile and fits written as format version 7 (flags 24: the moments in steps of a
+// level and half a level, predicted from their neighbours; the fuzzer's seeds too).
+TEST(TextureMethods, VersionSevenFilesStillReadAndSynthesiseAlike) {
+  expect_golden_files("golden_v7_",
+                      {{"3d-car", 505, {179.085556f, 168.134262f, 148.400436f}},
+                       {"2d-car", 501, {189.116959f, 175.902451f, 155.036438f}},
+                       {"gmrf", 505, {183.508682f, 170.465515f, 151.463867f}}},
+                      kImageMoments | kPredictedImageMoments);
 }
 
 }  // namespace

@@ -7,13 +7,15 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
+#include <utility>
 
 #include "btfgmm/core/error.hpp"
+#include "model/compact.hpp"
 
 namespace btfgmm::detail {
 namespace {
 
-constexpr int kZstdLevel = 19;
 constexpr std::size_t kPlanes = 6;
 
 // A step that codes 0 .. `largest` in 255 steps (a positive one where all are 0).
@@ -60,42 +62,43 @@ ImageMoments measure_image_moments(const Btf& tile) {
   for (std::size_t i = 0; i < n; ++i)
     measure_moments(tile.data().data() + i * tile.image_floats(), pixels, &m.mean[i * 3],
                     &m.deviation[i * 3]);
-  m.mean_step = double(float(step_for(m.mean)));  // as the file's f32 holds it
-  m.deviation_step = double(float(step_for(m.deviation)));
+  // As the file's f32 holds them.
+  const bool levels = tile.format() != SampleFormat::kHdr;
+  m.mean_step = levels ? kMeanStep : double(float(step_for(m.mean)));
+  m.deviation_step = levels ? kDeviationStep : double(float(step_for(m.deviation)));
   round_to_codes(m.mean, m.mean_step);
   round_to_codes(m.deviation, m.deviation_step);
   return m;
 }
 
-void put_image_moments(ByteWriter& w, const ImageMoments& m) {
-  const std::size_t n = m.images();
-  std::vector<std::uint8_t> raw(kPlanes * n);
-  for (std::size_t plane = 0; plane < kPlanes; ++plane) {
-    const std::vector<float>& v = plane < 3 ? m.mean : m.deviation;
-    const double step = plane < 3 ? m.mean_step : m.deviation_step;
-    std::uint8_t before = 0;
-    for (std::size_t i = 0; i < n; ++i) {
-      const std::uint8_t code = code_of(v[i * 3 + plane % 3], step);
-      raw[plane * n + i] = std::uint8_t(code - before);
-      before = code;
-    }
-  }
-  std::vector<std::uint8_t> packed(ZSTD_compressBound(raw.size()));
-  const std::size_t size =
-      ZSTD_compress(packed.data(), packed.size(), raw.data(), raw.size(), kZstdLevel);
-  if (ZSTD_isError(size))
-    throw Error(Error::Kind::kIo, fmt::format("zstd could not compress the image moments: {}",
-                                              ZSTD_getErrorName(size)));
-  w.put<float>(float(m.mean_step));
-  w.put<float>(float(m.deviation_step));
-  w.put<std::uint32_t>(std::uint32_t(size));
-  w.bytes.insert(w.bytes.end(), packed.begin(), packed.begin() + std::ptrdiff_t(size));
+namespace {
+
+// The codes of one kind of moment (the means or the deviations), channel-major: c * n + i.
+std::vector<std::int64_t> codes_of(const std::vector<float>& v, double step) {
+  const std::size_t n = v.size() / 3;
+  std::vector<std::int64_t> q(v.size());
+  for (std::size_t c = 0; c < 3; ++c)
+    for (std::size_t i = 0; i < n; ++i) q[c * n + i] = code_of(v[i * 3 + c], step);
+  return q;
 }
 
-ImageMoments get_image_moments(ByteReader& r, std::size_t images) {
-  ImageMoments m;
-  m.mean_step = get_step(r, "image mean step");
-  m.deviation_step = get_step(r, "image deviation step");
+// The values of channel-major codes, each checked to be a byte's.
+std::vector<float> values_of(ByteReader& r, const std::vector<std::int64_t>& q, double step,
+                             const char* what) {
+  const std::size_t n = q.size() / 3;
+  std::vector<float> v(q.size());
+  for (std::size_t c = 0; c < 3; ++c)
+    for (std::size_t i = 0; i < n; ++i) {
+      const std::int64_t code = q[c * n + i];
+      if (code < 0 || code > 255)
+        r.fail(fmt::format("an image {} code {} is not 0..255", what, code));
+      v[i * 3 + c] = float(double(code) * step);
+    }
+  return v;
+}
+
+// Version 6's block after its steps.
+void get_delta_codes(ByteReader& r, ImageMoments& m, std::size_t images) {
   const std::size_t size = r.get<std::uint32_t>("image moments size");
   if (size > r.remaining())
     r.fail(fmt::format("image moments claim {} bytes, {} are left", size, r.remaining()));
@@ -116,6 +119,61 @@ ImageMoments get_image_moments(ByteReader& r, std::size_t images) {
       v[i * 3 + plane % 3] = float(code * step);
     }
   }
+}
+
+// Version 7's block after its steps: the predicted planes of the means and the deviations.
+void get_predicted_codes(ByteReader& r, ImageMoments& m, std::size_t images, std::size_t views) {
+  const auto raw_size = r.get<std::uint64_t>("image moments coded size");
+  const std::size_t size = r.get<std::uint32_t>("image moments size");
+  // Every column at most 8 bytes a code, plus its width byte.
+  if (double(raw_size) > double(kPlanes) * (1.0 + 8.0 * double(images)))
+    r.fail(fmt::format("image moments claim {} coded bytes for {} images", raw_size, images));
+  if (size > r.remaining())
+    r.fail(fmt::format("image moments claim {} bytes, {} are left", size, r.remaining()));
+  std::vector<std::uint8_t> packed(size);
+  for (std::uint8_t& b : packed) b = r.get<std::uint8_t>("image moments");
+  const std::vector<std::uint8_t> raw = decompress_codes(r, packed, raw_size);
+  ByteReader cr(raw, "model file", "(its image moments)", "fit the model again");
+  std::vector<std::int64_t> planes[2];
+  for (std::size_t plane = 0; plane < kPlanes; ++plane) {
+    const Column c = get_column(cr, images);
+    planes[plane / 3].insert(planes[plane / 3].end(), c.begin(), c.end());
+  }
+  if (cr.remaining() != 0) r.fail("the image moments' codes hold bytes left over");
+  m.mean = values_of(r, unpredicted_colour_planes(planes[0], views), m.mean_step, "mean");
+  m.deviation =
+      values_of(r, unpredicted_colour_planes(planes[1], views), m.deviation_step, "deviation");
+}
+
+}  // namespace
+
+void put_image_moments(ByteWriter& w, const ImageMoments& m, std::size_t views) {
+  std::vector<std::uint8_t> raw;
+  for (const auto& [v, step] :
+       {std::pair(&m.mean, m.mean_step), {&m.deviation, m.deviation_step}}) {
+    const std::vector<std::int64_t> r = predicted_colour_planes(codes_of(*v, step), views);
+    const std::size_t n = r.size() / 3;
+    for (std::size_t c = 0; c < 3; ++c)
+      put_column(
+          raw, Column(r.begin() + std::ptrdiff_t(c * n), r.begin() + std::ptrdiff_t((c + 1) * n)));
+  }
+  const std::vector<std::uint8_t> packed = compress_codes(raw);
+  w.put<float>(float(m.mean_step));
+  w.put<float>(float(m.deviation_step));
+  w.put<std::uint64_t>(std::uint64_t(raw.size()));
+  w.put<std::uint32_t>(std::uint32_t(packed.size()));
+  w.bytes.insert(w.bytes.end(), packed.begin(), packed.end());
+}
+
+ImageMoments get_image_moments(ByteReader& r, std::size_t images, std::size_t views,
+                               MomentsCoding coding) {
+  ImageMoments m;
+  m.mean_step = get_step(r, "image mean step");
+  m.deviation_step = get_step(r, "image deviation step");
+  if (coding == MomentsCoding::kDeltas)
+    get_delta_codes(r, m, images);
+  else
+    get_predicted_codes(r, m, images, views);
   return m;
 }
 

@@ -1,8 +1,9 @@
 // Each image's colour: the per-channel mean and standard deviation of every (light, view)
 // image of a tile (internal), what the texture models match their synthesis to
 // (docs/METHODS.md, "The probabilistic texture models"). The means are the mean BRDF the
-// mixture stores; both are kept at a byte a value, each in steps of its largest value / 255
-// (for 8-bit data at most one level for the means, half a level for the deviations).
+// mixture stores; both are kept as codes of a byte (for 8-bit data steps of one level for the
+// means, half a level for the deviations), predicted from their neighbours on the light x
+// view grid as the mixture's mean BRDF is (model/compact.hpp).
 #pragma once
 
 #include <cstddef>
@@ -23,15 +24,32 @@ struct ImageMoments {
   std::size_t images() const { return mean.size() / 3; }
 };
 
-// Every image's moments, rounded to their codes (what a file written and read holds).
+// Every image's moments, rounded to their codes (what a file written and read holds): for 8-
+// and 16-bit data (held on 0-255) in steps of kMeanStep and kDeviationStep levels, the mean
+// BRDF's step in the mixture and half of it (a level and half a level: codes of a byte);
+// for HDR data in steps of the largest value / 255. Format version 6 took the largest / 255
+// for all data, finer steps than the means' and deviations' own noise, in more bytes.
+constexpr double kMeanStep = 1.0, kDeviationStep = 0.5;
 ImageMoments measure_image_moments(const Btf& tile);
 
-// f32 mean step, f32 deviation step, u32 P, then P bytes: a zstd frame of 6 n bytes, the
-// planes mean R, G, B, deviation R, G, B, each n codes (light-major), each code stored less
-// the one before it in its plane, modulo 256.
-void put_image_moments(ByteWriter& w, const ImageMoments& m);
-// Reads what put_image_moments wrote for `images` images; r.fail() on anything out of range.
-ImageMoments get_image_moments(ByteReader& r, std::size_t images);
+// How the moments' codes are laid out: each less the one before it in its plane, modulo 256
+// (format version 6, flags kImageMoments), or predicted from their neighbours on the light x
+// view grid as the mixture's mean BRDF is (version 7 on, flags kImageMoments |
+// kPredictedImageMoments).
+enum class MomentsCoding { kDeltas, kPredicted };
+
+// f32 mean step, f32 deviation step, u64 C, u32 P, then P bytes: a zstd frame of C bytes, six
+// columns of ni*nv codes (model/compact.hpp): the planes G, R - G, B - G of the means' codes
+// and of the deviations', each code less the plane through its neighbours on the light x view
+// grid of `views` views a light (predicted_colour_planes).
+void put_image_moments(ByteWriter& w, const ImageMoments& m, std::size_t views);
+// Reads what put_image_moments wrote (kPredicted) or version 6's block (kDeltas: f32 mean
+// step, f32 deviation step, u32 P, then P bytes: a zstd frame of 6 n bytes, the planes mean
+// R, G, B, deviation R, G, B, each n codes light-major, each code stored less the one before
+// it in its plane, modulo 256) for `images` images; r.fail() on anything out of range (a code
+// outside 0..255 among them).
+ImageMoments get_image_moments(ByteReader& r, std::size_t images, std::size_t views,
+                               MomentsCoding coding);
 
 // An image's (pixels RGB values) mean and deviation per channel.
 void measure_moments(const float* rgb, std::size_t pixels, float* mean, float* deviation);

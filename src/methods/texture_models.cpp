@@ -135,7 +135,7 @@ std::size_t TextureModel::label_of(const Direction& light, const Direction& view
 }
 
 std::uint32_t TextureModel::file_flags() const {
-  return moments_ ? kImageMoments : 0;
+  return moments_ ? kImageMoments | kPredictedImageMoments : 0;
 }
 
 float TextureModel::shading(std::size_t pixel, const Direction& light) const {
@@ -253,7 +253,7 @@ std::vector<std::uint8_t> TextureModel::payload() const {
   detail::put_factors(w, heights_, heights_.size(), range_encoding_);
   for (const Subspace& s : subspaces_) s->put(w);
   if (moments_) {
-    detail::put_image_moments(w, *moments_);
+    detail::put_image_moments(w, *moments_, frame_.views.size());
     for (const std::vector<float>& z : moments_->marginals) detail::put_marginal(w, z);
   }
   return std::move(w.bytes);

@@ -101,12 +101,13 @@ std::unique_ptr<Representation> read_texture_model(TextureKind kind,
                                                    std::span<const std::uint8_t> payload,
                                                    std::uint32_t flags, const std::string& name) {
   detail::ByteReader r(payload, "model file", name, "fit the model again");
-  if (flags != 0 && flags != kImageMoments)
-    r.fail(fmt::format("{} takes flags 0 or {:#x}, the file has {:#x}", method_name(kind),
-                       kImageMoments, flags));
+  constexpr std::uint32_t predicted = kImageMoments | kPredictedImageMoments;
+  if (flags != 0 && flags != kImageMoments && flags != predicted)
+    r.fail(fmt::format("{} takes flags 0, {:#x} or {:#x}, the file has {:#x}", method_name(kind),
+                       kImageMoments, predicted, flags));
   // A file with the image moments (version 6 on) synthesises its CAR models on the torus;
   // one before them in raster order, as it always did.
-  const bool moments = flags == kImageMoments;
+  const bool moments = (flags & kImageMoments) != 0;
   const auto synthesis = moments ? detail::CarSynthesis::kSpectral : detail::CarSynthesis::kRaster;
   ModelFrame frame = detail::get_frame(r);
   const auto seed = r.get<std::uint64_t>("seed");
@@ -126,7 +127,9 @@ std::unique_ptr<Representation> read_texture_model(TextureKind kind,
     subspaces.push_back(detail::get_colour_texture(kind, levels, r, synthesis));
   std::shared_ptr<const detail::ImageMoments> image_moments;
   if (moments) {
-    detail::ImageMoments m = detail::get_image_moments(r, labels.size());
+    detail::ImageMoments m = detail::get_image_moments(
+        r, labels.size(), frame.views.size(),
+        flags == predicted ? detail::MomentsCoding::kPredicted : detail::MomentsCoding::kDeltas);
     for (std::size_t k = 0; k < c; ++k) m.marginals.push_back(detail::get_marginal(r));
     image_moments = std::make_shared<detail::ImageMoments>(std::move(m));
   }

@@ -24,8 +24,6 @@ constexpr double kZstdMaxRatio = 131072.0 / 4.0;
 // The columns of the mixture: ln w, ln sigma x 9, the six input means, the three colour means.
 constexpr int kComponentColumns = 1 + kVariables + kVariables;
 
-using Column = std::vector<std::int64_t>;
-
 std::uint64_t zigzag(std::int64_t v) {
   return (std::uint64_t(v) << 1) ^ std::uint64_t(v >> 63);
 }
@@ -36,6 +34,8 @@ std::int64_t unzigzag(std::uint64_t z) {
 std::int64_t code_of(double v, double step) {
   return std::llround(v / step);
 }
+
+}  // namespace
 
 // One column: u8 width k (bytes per code), then k byte planes of n bytes, the low byte first.
 void put_column(std::vector<std::uint8_t>& out, const Column& c) {
@@ -60,6 +60,8 @@ Column get_column(ByteReader& r, std::size_t n) {
   for (std::size_t i = 0; i < n; ++i) c[i] = unzigzag(z[i]);
   return c;
 }
+
+namespace {
 
 // The codes of the mixture, column by column (component order kept).
 std::vector<Column> component_codes(const BtfModel& m, const CompactSteps& s) {
@@ -149,41 +151,10 @@ std::int64_t planar_prediction(std::span<const std::int64_t> p, std::size_t i, s
   return minus(plus(a, b), c);
 }
 
-// Version 5: the planes G, R - G and B - G of the codes (channel-major), each code less its
-// planar prediction.
-std::vector<std::int64_t> predicted(std::vector<std::int64_t> q, std::size_t nv) {
-  const std::size_t n = q.size() / 3;
-  for (std::size_t i = 0; i < n; ++i) {
-    std::swap(q[i], q[n + i]);                 // G first
-    q[n + i] = minus(q[n + i], q[i]);          // R - G
-    q[2 * n + i] = minus(q[2 * n + i], q[i]);  // B - G
-  }
-  std::vector<std::int64_t> r(q.size());
-  for (std::size_t c = 0; c < 3; ++c) {
-    const std::span<const std::int64_t> plane(q.data() + c * n, n);
-    for (std::size_t i = 0; i < n; ++i)
-      r[c * n + i] = minus(plane[i], planar_prediction(plane, i, nv));
-  }
-  return r;
-}
-
-std::vector<std::int64_t> unpredicted(std::vector<std::int64_t> r, std::size_t nv) {
-  const std::size_t n = r.size() / 3;
-  for (std::size_t c = 0; c < 3; ++c) {
-    const std::span<std::int64_t> plane(r.data() + c * n, n);
-    for (std::size_t i = 0; i < n; ++i) plane[i] = plus(plane[i], planar_prediction(plane, i, nv));
-  }
-  for (std::size_t i = 0; i < n; ++i) {
-    r[n + i] = plus(r[n + i], r[i]);
-    r[2 * n + i] = plus(r[2 * n + i], r[i]);
-    std::swap(r[i], r[n + i]);
-  }
-  return r;
-}
-
 // The mean BRDF's columns as version 5 writes them (one per plane).
 std::vector<Column> mean_brdf_codes(const BtfModel& m, double step) {
-  const std::vector<std::int64_t> r = predicted(mean_brdf_quanta(m, step), m.views.size());
+  const std::vector<std::int64_t> r =
+      predicted_colour_planes(mean_brdf_quanta(m, step), m.views.size());
   const std::size_t n = r.size() / 3;
   std::vector<Column> cols;
   for (std::size_t c = 0; c < 3; ++c)
@@ -196,7 +167,8 @@ std::vector<float> mean_brdf_of(const std::vector<Column>& cols, std::size_t nv,
                                 MeanBrdfCoding coding) {
   std::vector<std::int64_t> r;
   for (const Column& c : cols) r.insert(r.end(), c.begin(), c.end());
-  if (coding == MeanBrdfCoding::kPredicted) return mean_brdf_values(unpredicted(r, nv), step);
+  if (coding == MeanBrdfCoding::kPredicted)
+    return mean_brdf_values(unpredicted_colour_planes(r, nv), step);
   const std::size_t n = r.size() / 3;
   for (std::size_t c = 0; c < 3; ++c) undo_view_deltas(std::span(r).subspan(c * n, n), nv);
   return mean_brdf_values(r, step);
@@ -213,6 +185,61 @@ void check_step(ByteReader& r, double step) {
 
 }  // namespace
 
+std::vector<std::int64_t> predicted_colour_planes(std::vector<std::int64_t> q, std::size_t nv) {
+  const std::size_t n = q.size() / 3;
+  for (std::size_t i = 0; i < n; ++i) {
+    std::swap(q[i], q[n + i]);                 // G first
+    q[n + i] = minus(q[n + i], q[i]);          // R - G
+    q[2 * n + i] = minus(q[2 * n + i], q[i]);  // B - G
+  }
+  std::vector<std::int64_t> r(q.size());
+  for (std::size_t c = 0; c < 3; ++c) {
+    const std::span<const std::int64_t> plane(q.data() + c * n, n);
+    for (std::size_t i = 0; i < n; ++i)
+      r[c * n + i] = minus(plane[i], planar_prediction(plane, i, nv));
+  }
+  return r;
+}
+
+std::vector<std::int64_t> unpredicted_colour_planes(std::vector<std::int64_t> r, std::size_t nv) {
+  const std::size_t n = r.size() / 3;
+  for (std::size_t c = 0; c < 3; ++c) {
+    const std::span<std::int64_t> plane(r.data() + c * n, n);
+    for (std::size_t i = 0; i < n; ++i) plane[i] = plus(plane[i], planar_prediction(plane, i, nv));
+  }
+  for (std::size_t i = 0; i < n; ++i) {
+    r[n + i] = plus(r[n + i], r[i]);
+    r[2 * n + i] = plus(r[2 * n + i], r[i]);
+    std::swap(r[i], r[n + i]);
+  }
+  return r;
+}
+
+std::vector<std::uint8_t> compress_codes(const std::vector<std::uint8_t>& raw) {
+  std::vector<std::uint8_t> packed(ZSTD_compressBound(raw.size()));
+  const std::size_t n =
+      ZSTD_compress(packed.data(), packed.size(), raw.data(), raw.size(), kZstdLevel);
+  if (ZSTD_isError(n))
+    throw Error(Error::Kind::kIo,
+                fmt::format("zstd could not compress the model: {}", ZSTD_getErrorName(n)));
+  packed.resize(n);
+  return packed;
+}
+
+std::vector<std::uint8_t> decompress_codes(ByteReader& r, std::span<const std::uint8_t> packed,
+                                           std::uint64_t raw_size) {
+  if (ZSTD_getFrameContentSize(packed.data(), packed.size()) != raw_size)
+    r.fail("the compressed codes do not hold the size the file states");
+  // Before allocating for it: what the codes can hold at most.
+  if (double(raw_size) > kZstdMaxRatio * double(packed.size()))
+    r.fail(fmt::format("the compressed codes claim {} bytes, more than their {} bytes can hold",
+                       raw_size, packed.size()));
+  std::vector<std::uint8_t> raw(static_cast<std::size_t>(raw_size));
+  const std::size_t got = ZSTD_decompress(raw.data(), raw.size(), packed.data(), packed.size());
+  if (ZSTD_isError(got) || got != raw.size()) r.fail("the compressed codes are corrupted");
+  return raw;
+}
+
 void put_compact_components(ByteWriter& w, const BtfModel& m) {
   const CompactSteps& s = m.compact_steps;
   w.put<std::uint32_t>(std::uint32_t(m.mixture.size()));
@@ -221,14 +248,9 @@ void put_compact_components(ByteWriter& w, const BtfModel& m) {
   std::vector<std::uint8_t> raw;
   for (const Column& c : component_codes(m, s)) put_column(raw, c);
   for (const Column& c : mean_brdf_codes(m, brdf_step(m, s))) put_column(raw, c);
-  std::vector<std::uint8_t> packed(ZSTD_compressBound(raw.size()));
-  const std::size_t n =
-      ZSTD_compress(packed.data(), packed.size(), raw.data(), raw.size(), kZstdLevel);
-  if (ZSTD_isError(n))
-    throw Error(Error::Kind::kIo,
-                fmt::format("zstd could not compress the model: {}", ZSTD_getErrorName(n)));
+  const std::vector<std::uint8_t> packed = compress_codes(raw);
   w.put<std::uint64_t>(std::uint64_t(raw.size()));
-  w.bytes.insert(w.bytes.end(), packed.begin(), packed.begin() + std::ptrdiff_t(n));
+  w.bytes.insert(w.bytes.end(), packed.begin(), packed.end());
 }
 
 void get_compact_components(ByteReader& r, BtfModel& m, MeanBrdfCoding coding) {
@@ -248,15 +270,7 @@ void get_compact_components(ByteReader& r, BtfModel& m, MeanBrdfCoding coding) {
     r.fail(fmt::format("{} components and {} coded bytes do not go together", count, raw_size));
   std::vector<std::uint8_t> packed(r.remaining());
   for (auto& b : packed) b = r.get<std::uint8_t>("compressed codes");
-  if (ZSTD_getFrameContentSize(packed.data(), packed.size()) != raw_size)
-    r.fail("the compressed codes do not hold the size the file states");
-  // Before allocating for it: what the codes can hold at most.
-  if (double(raw_size) > kZstdMaxRatio * double(packed.size()))
-    r.fail(fmt::format("the compressed codes claim {} bytes, more than their {} bytes can hold",
-                       raw_size, packed.size()));
-  std::vector<std::uint8_t> raw(static_cast<std::size_t>(raw_size));
-  const std::size_t got = ZSTD_decompress(raw.data(), raw.size(), packed.data(), packed.size());
-  if (ZSTD_isError(got) || got != raw.size()) r.fail("the compressed codes are corrupted");
+  const std::vector<std::uint8_t> raw = decompress_codes(r, packed, raw_size);
   ByteReader cr(raw, "model file", "(its compressed codes)", "fit the model again");
   std::vector<Column> comp, brdf;
   for (int c = 0; c < kComponentColumns; ++c) comp.push_back(get_column(cr, count));

@@ -17,7 +17,8 @@
 // u8 pyramid levels K (1 in files written before the pyramid), u32 c, ni*nv u8 labels, the
 // range map as factors (1 row of W*H heights, f16 unless --precision says otherwise), then c
 // subspace models of K levels each, then (file flag kImageMoments, format version 6 on) the
-// image moments (docs/FORMAT.md). A file without them synthesises as it always did.
+// image moments, predicted as the mixture's mean BRDF is from version 7 on (flag
+// kPredictedImageMoments; docs/FORMAT.md). A file without them synthesises as it always did.
 #pragma once
 
 #include <cstdint>
@@ -68,7 +69,9 @@ class TextureModel final : public Representation {
   // are 32-bit floats.
   FactorEncoding encoding() const override { return range_encoding_; }
   bool synthesises() const override { return true; }
-  std::uint32_t file_flags() const override;  // kImageMoments where they are stored
+  // kImageMoments | kPredictedImageMoments where they are stored (a version-6 file's are
+  // written again predicted, the same values).
+  std::uint32_t file_flags() const override;
   void set_synthesis_seed(std::uint64_t seed, std::string_view option) override;
 
   std::uint64_t seed() const { return seed_; }
