@@ -144,7 +144,7 @@ TEST(Sweep, WritesModelFilesThatLoadAsTheModelsMeasured) {
   fs::remove_all(dir);
 }
 
-// Unless asked, each method is stored as small as it can be: q8, the mixture in f16; an
+// Unless asked, each method is stored as small as it can be: compact, the mixture in f16; an
 // asked encoding applies to every method.
 TEST(Sweep, StoresEachMethodAtItsSmallestUnlessAsked) {
   const Btf tile = tiny_tile();
@@ -161,10 +161,10 @@ TEST(Sweep, StoresEachMethodAtItsSmallestUnlessAsked) {
     const auto& gm = dynamic_cast<const GaussianMixture&>(*s.models[0].model);
     const auto& pca = dynamic_cast<const PcaBtf&>(*s.models[1].model);
     EXPECT_EQ(gm.model().precision, asked ? Precision::kF32 : Precision::kF16);
-    EXPECT_EQ(pca.encoding(), asked ? FactorEncoding::kF32 : FactorEncoding::kQ8);
+    EXPECT_EQ(pca.encoding(), asked ? FactorEncoding::kF32 : FactorEncoding::kCompact);
   }
   EXPECT_EQ(find_method("gm").fit_encoding, FactorEncoding::kF32);
-  EXPECT_EQ(find_method("pca-btf").fit_encoding, FactorEncoding::kQ8);
+  EXPECT_EQ(find_method("pca-btf").fit_encoding, FactorEncoding::kCompact);
 }
 
 TEST(Sweep, ChecksTheRequestAndStopsOnTheFlag) {

@@ -302,7 +302,7 @@ MethodSettings method_settings(const FitOptions& o, const MethodInfo& method) {
   s.iterations = o.iterations;
   s.seed = o.seed;
   s.threads = o.threads;
-  // 8 bits a factor by default: at most 0.1 dB below f32 on generated tiles (docs/METHODS.md).
+  // Compact by default: at most 0.06 dB below q8 on generated tiles (docs/METHODS.md).
   s.encoding = o.precision.empty() ? method.fit_encoding
                                    : parse_factor_encoding(o.precision, option_name("precision"));
   return s;

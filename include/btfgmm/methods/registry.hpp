@@ -39,8 +39,8 @@ struct MethodInfo {
   // (mixture_fit_request, methods/fit_options.hpp) and reads no fit_encoding for it; its row
   // names f32, its exact storage, which `sweep` and `fit --budget` never choose (they store
   // it at smallest_encoding, f16).
-  FactorEncoding fit_encoding = FactorEncoding::kQ8;
-  FactorEncoding smallest_encoding = FactorEncoding::kQ8;
+  FactorEncoding fit_encoding = FactorEncoding::kCompact;
+  FactorEncoding smallest_encoding = FactorEncoding::kCompact;
 };
 
 // Every method, the Gaussian mixture ("gm") first.

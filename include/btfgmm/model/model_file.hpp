@@ -18,7 +18,7 @@
 
 namespace btfgmm {
 
-constexpr std::uint32_t kModelFormatVersion = 6;
+constexpr std::uint32_t kModelFormatVersion = 7;
 // The mixture's flags: its Precision, and with the compact encoding (version 5 on) this bit,
 // the mean BRDF's codes predicted from their neighbours (docs/FORMAT.md).
 constexpr std::uint32_t kPredictedMeanBrdf = 4;
