@@ -287,8 +287,10 @@ void register_fit_command(CLI::App& app, Commands& commands) {
   f->add_option("--precision", fit->precision,
                 "gm: compact (default: each parameter quantised with a stated step, zstd; "
                 "docs/FORMAT.md), f32 (exact, for --continue to match one longer fit) or f16; "
-                "other methods: f32, f16 or q8 (8 bits with an offset and scale per component, "
-                "default); 3d-car, 2d-car, gmrf: the range map's (f16 default; their few model "
+                "other methods: compact (default: quantised with a step per component, predicted "
+                "from neighbouring pixels or directions, zstd), f32, f16 or q8 (8 bits with an "
+                "offset and scale per component); 3d-car, 2d-car, gmrf: the range map's (f16 "
+                "default; their few model "
                 "parameters are always f32)");
   add_budget_and_run_options(*f, *fit);
 

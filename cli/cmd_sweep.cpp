@@ -344,9 +344,10 @@ void register_sweep_command(CLI::App& app, Commands& commands) {
       ->required();
   auto* methods = c->add_option("--methods", opt->methods, methods_help());
   c->add_option("--precision", opt->precision,
-                "Factors stored as f16, f32 or q8 (8 bits; the Gaussian mixture's q8 is its "
-                "compact format); default: the file fit writes for each method (gm: compact), "
-                "so that the files compared are the files a user gets");
+                "Factors stored as compact, q8, f16 or f32 for every method (the Gaussian "
+                "mixture's compact and q8 are its compact format); default: the file fit "
+                "writes for each method (compact), so that the files compared are the files a "
+                "user gets");
   c->add_option("--components", opt->components,
                 "Sizes fitted instead of each method's ladder, comma-separated: mixture "
                 "components M (gm), eigen-images (pca-btf, pca-rf), components per cluster (lpca)")

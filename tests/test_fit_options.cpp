@@ -96,7 +96,7 @@ TEST(FitOptions, DefaultsAreTheCommands) {
   FitOptions f16;
   f16.precision = "f16";
   EXPECT_EQ(mixture_fit_request(f16, "in", "out").precision, Precision::kF16);
-  EXPECT_EQ(method_settings({}, find_method("pca-btf")).encoding, FactorEncoding::kQ8);
+  EXPECT_EQ(method_settings({}, find_method("pca-btf")).encoding, FactorEncoding::kCompact);
   EXPECT_EQ(method_settings({}, find_method("pca-btf")).components, 0u);  // the method's own
 }
 

@@ -261,7 +261,8 @@ TEST(PcaMethods, FullRankReproducesTheData) {
 
 TEST(PcaMethods, FilesRoundTripBitExactly) {
   for (const std::string& m : methods())
-    for (FactorEncoding e : {FactorEncoding::kF32, FactorEncoding::kF16, FactorEncoding::kQ8}) {
+    for (FactorEncoding e : {FactorEncoding::kF32, FactorEncoding::kF16, FactorEncoding::kQ8,
+                             FactorEncoding::kCompact}) {
       const auto r = fit(m, small_settings(m, e));
       const auto bytes = representation_file_bytes(*r);
       const auto back = read_representation(bytes, "round trip");
@@ -278,7 +279,7 @@ TEST(PcaMethods, FilesRoundTripBitExactly) {
 
 TEST(PcaMethods, TruncatedOrCorruptedFilesAreRefused) {
   for (const std::string& m : methods())
-    for (FactorEncoding e : {FactorEncoding::kF32, FactorEncoding::kQ8}) {
+    for (FactorEncoding e : {FactorEncoding::kF32, FactorEncoding::kQ8, FactorEncoding::kCompact}) {
       const auto r = fit(m, small_settings(m, e));
       const auto bytes = representation_file_bytes(*r);
       const auto payload = r->payload();

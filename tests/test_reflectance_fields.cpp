@@ -226,7 +226,8 @@ void check_model_file(const Representation& model) {
 
 TEST(ReflectanceFields, ModelFilesRoundTripAtEveryEncoding) {
   const Btf tile = small_tile();
-  for (FactorEncoding e : {FactorEncoding::kF32, FactorEncoding::kF16, FactorEncoding::kQ8}) {
+  for (FactorEncoding e : {FactorEncoding::kF32, FactorEncoding::kF16, FactorEncoding::kQ8,
+                           FactorEncoding::kCompact}) {
     SCOPED_TRACE(std::string(to_string(e)));
     MethodSettings s = at(e);
     check_model_file(*find_method("ptm-rf").fit(tile, s));

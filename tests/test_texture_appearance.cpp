@@ -17,6 +17,7 @@
 #include "core/random.hpp"
 #include "methods/car.hpp"
 #include "methods/image_moments.hpp"
+#include "model/coded_columns.hpp"
 #include "model/compact.hpp"
 
 namespace btfgmm {
@@ -292,8 +293,8 @@ TEST(ImageMoments, ACodeOutsideAByteIsRefused) {
   const std::size_t n = 6;
   std::vector<std::uint8_t> raw;
   for (std::size_t plane = 0; plane < 6; ++plane)
-    put_column(raw, Column(n, plane == 0 ? 300 : 0));  // G's first code 300
-  const std::vector<std::uint8_t> packed = compress_codes(raw);
+    put_column(raw, CodeColumn(n, plane == 0 ? 300 : 0));  // G's first code 300
+  const std::vector<std::uint8_t> packed = zstd_pack(raw);
   ByteWriter w;
   w.put<float>(1.0f), w.put<float>(1.0f);
   w.put<std::uint64_t>(raw.size());

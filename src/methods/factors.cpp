@@ -8,6 +8,7 @@
 #include <cmath>
 
 #include "btfgmm/core/error.hpp"
+#include "methods/compact_factors.hpp"
 
 namespace btfgmm {
 
@@ -19,6 +20,8 @@ std::string_view to_string(FactorEncoding e) {
       return "f16";
     case FactorEncoding::kQ8:
       return "q8";
+    case FactorEncoding::kCompact:
+      return "compact";
   }
   return "?";
 }
@@ -27,9 +30,11 @@ FactorEncoding parse_factor_encoding(std::string_view text, std::string_view opt
   if (text == "f32") return FactorEncoding::kF32;
   if (text == "f16") return FactorEncoding::kF16;
   if (text == "q8") return FactorEncoding::kQ8;
+  if (text == "compact") return FactorEncoding::kCompact;
   throw Error(Error::Kind::kArgument,
-              fmt::format("{} '{}': give f32 (32-bit floats), f16 (16-bit floats) or q8 (8 bits "
-                          "with an offset and scale per component)",
+              fmt::format("{} '{}': give compact (quantised with a step per component, predicted "
+                          "from neighbours, zstd), f32 (32-bit floats), f16 (16-bit floats) or q8 "
+                          "(8 bits with an offset and scale per component)",
                           option, text));
 }
 
@@ -65,6 +70,14 @@ float half_of(float v) {
 
 }  // namespace
 
+FactorLayout image_layout(const ModelFrame& f) {
+  return {std::size_t(f.width), 3};
+}
+
+FactorLayout directions_layout(const ModelFrame& f, std::size_t channels) {
+  return {f.views.size(), channels};
+}
+
 double factor_error_bound(FactorEncoding e, double lo, double hi) {
   switch (e) {
     case FactorEncoding::kF32:
@@ -73,6 +86,8 @@ double factor_error_bound(FactorEncoding e, double lo, double hi) {
       return std::max(std::abs(lo), std::abs(hi)) * std::ldexp(1.0, -11);
     case FactorEncoding::kQ8:
       return (hi - lo) / 255.0 * 0.5 * (1.0 + 1e-6);
+    case FactorEncoding::kCompact:
+      return compact_step(lo, hi) * 0.5 * (1.0 + 1e-6);
   }
   return 0.0;
 }
@@ -82,6 +97,7 @@ void quantise_factors(std::span<float> values, std::size_t cols, FactorEncoding 
     if (!std::isfinite(v))
       throw Error(Error::Kind::kArgument, "a factor to store is not finite (NaN or infinite)");
   if (e == FactorEncoding::kF32 || cols == 0) return;
+  if (e == FactorEncoding::kCompact) return quantise_compact(values, cols);
   if (e == FactorEncoding::kF16) {
     for (float& v : values) v = half_of(v);
     return;
@@ -108,16 +124,22 @@ std::size_t factor_bytes(std::size_t rows, std::size_t cols, FactorEncoding e) {
       return header + rows * cols * 2;
     case FactorEncoding::kQ8:
       return header + rows * (8 + cols);
+    case FactorEncoding::kCompact:
+      break;
   }
-  return header;
+  throw Error(Error::Kind::kArgument,
+              "the compact encoding's size is known once its factors are coded");
 }
 
-void put_factors(ByteWriter& w, std::span<const float> values, std::size_t cols, FactorEncoding e) {
+void put_factors(ByteWriter& w, std::span<const float> values, std::size_t cols, FactorEncoding e,
+                 FactorLayout layout) {
   const std::size_t rows = cols ? values.size() / cols : 0;
   w.put<std::uint8_t>(std::uint8_t(e));
   w.put<std::uint32_t>(std::uint32_t(rows));
   w.put<std::uint32_t>(std::uint32_t(cols));
-  if (e == FactorEncoding::kF32) {
+  if (e == FactorEncoding::kCompact) {
+    put_compact_factors(w, values, cols, layout);
+  } else if (e == FactorEncoding::kF32) {
     for (float v : values) w.put<float>(v);
   } else if (e == FactorEncoding::kF16) {
     for (float v : values) w.put<std::uint16_t>(Imath::half(v).bits());
@@ -132,15 +154,16 @@ void put_factors(ByteWriter& w, std::span<const float> values, std::size_t cols,
   }
 }
 
-std::vector<float> get_factors(ByteReader& r, std::size_t rows, std::size_t cols,
-                               const char* field) {
+std::vector<float> get_factors(ByteReader& r, std::size_t rows, std::size_t cols, const char* field,
+                               FactorLayout layout) {
   const auto e = r.get<std::uint8_t>(field);
-  if (e > 2) r.fail(fmt::format("{}: unknown factor encoding {}", field, e));
+  if (e > 3) r.fail(fmt::format("{}: unknown factor encoding {}", field, e));
   const auto got_rows = r.get<std::uint32_t>(field), got_cols = r.get<std::uint32_t>(field);
   if (got_rows != rows || got_cols != cols)
     r.fail(fmt::format("{}: {} x {} values where the model needs {} x {}", field, got_rows,
                        got_cols, rows, cols));
   const auto enc = FactorEncoding(e);
+  if (enc == FactorEncoding::kCompact) return get_compact_factors(r, rows, cols, layout, field);
   // In doubles: rows and cols come from the file, and their product may not fit 64 bits.
   const double row_bytes = enc == FactorEncoding::kQ8    ? 8.0 + double(cols)
                            : enc == FactorEncoding::kF16 ? 2.0 * double(cols)

@@ -88,9 +88,9 @@ std::vector<std::pair<std::string, std::string>> GaussianMixture::details() cons
 }
 
 FactorEncoding GaussianMixture::encoding() const {
-  // The compact file quantises every parameter with a stated step (docs/FORMAT.md): q8's place.
+  // The compact file quantises every parameter with a stated step (docs/FORMAT.md).
   return model_.precision == Precision::kF16       ? FactorEncoding::kF16
-         : model_.precision == Precision::kCompact ? FactorEncoding::kQ8
+         : model_.precision == Precision::kCompact ? FactorEncoding::kCompact
                                                    : FactorEncoding::kF32;
 }
 
@@ -110,10 +110,12 @@ std::unique_ptr<Representation> fit_gaussian_mixture(const Btf& tile, const Meth
   // Stopped in EM (no model) or in the refinement (a model of fewer steps): stopped either way.
   if (model.mixture.size() == 0 || (s.stop && s.stop->load()))
     throw Error(Error::Kind::kArgument, "the Gaussian mixture's fit was stopped");
-  // q8, the smallest: the mixture's compact encoding (docs/FORMAT.md).
-  model.precision = s.encoding == FactorEncoding::kF16  ? Precision::kF16
-                    : s.encoding == FactorEncoding::kQ8 ? Precision::kCompact
-                                                        : Precision::kF32;
+  // compact (or q8, its place before compact factors came): the mixture's compact encoding
+  // (docs/FORMAT.md).
+  const bool compact = s.encoding == FactorEncoding::kCompact || s.encoding == FactorEncoding::kQ8;
+  model.precision = s.encoding == FactorEncoding::kF16 ? Precision::kF16
+                    : compact                          ? Precision::kCompact
+                                                       : Precision::kF32;
   return std::make_unique<GaussianMixture>(std::move(model));
 }
 

@@ -11,6 +11,7 @@
 #include <utility>
 
 #include "btfgmm/core/error.hpp"
+#include "model/coded_columns.hpp"
 #include "model/compact.hpp"
 
 namespace btfgmm::detail {
@@ -132,11 +133,11 @@ void get_predicted_codes(ByteReader& r, ImageMoments& m, std::size_t images, std
     r.fail(fmt::format("image moments claim {} bytes, {} are left", size, r.remaining()));
   std::vector<std::uint8_t> packed(size);
   for (std::uint8_t& b : packed) b = r.get<std::uint8_t>("image moments");
-  const std::vector<std::uint8_t> raw = decompress_codes(r, packed, raw_size);
+  const std::vector<std::uint8_t> raw = zstd_unpack(r, packed, raw_size);
   ByteReader cr(raw, "model file", "(its image moments)", "fit the model again");
   std::vector<std::int64_t> planes[2];
   for (std::size_t plane = 0; plane < kPlanes; ++plane) {
-    const Column c = get_column(cr, images);
+    const CodeColumn c = get_column(cr, images);
     planes[plane / 3].insert(planes[plane / 3].end(), c.begin(), c.end());
   }
   if (cr.remaining() != 0) r.fail("the image moments' codes hold bytes left over");
@@ -154,10 +155,10 @@ void put_image_moments(ByteWriter& w, const ImageMoments& m, std::size_t views) 
     const std::vector<std::int64_t> r = predicted_colour_planes(codes_of(*v, step), views);
     const std::size_t n = r.size() / 3;
     for (std::size_t c = 0; c < 3; ++c)
-      put_column(
-          raw, Column(r.begin() + std::ptrdiff_t(c * n), r.begin() + std::ptrdiff_t((c + 1) * n)));
+      put_column(raw, CodeColumn(r.begin() + std::ptrdiff_t(c * n),
+                                 r.begin() + std::ptrdiff_t((c + 1) * n)));
   }
-  const std::vector<std::uint8_t> packed = compress_codes(raw);
+  const std::vector<std::uint8_t> packed = zstd_pack(raw);
   w.put<float>(float(m.mean_step));
   w.put<float>(float(m.deviation_step));
   w.put<std::uint64_t>(std::uint64_t(raw.size()));

@@ -192,9 +192,11 @@ std::vector<std::uint8_t> Lpca::payload() const {
       w.put<std::uint16_t>(std::uint16_t(a));
   }
   const std::size_t dims = frame().lights.size() * frame().views.size() * 3;
-  detail::put_factors(w, means_, dims, encoding_);
-  detail::put_factors(w, basis_, dims, encoding_);
-  detail::put_factors(w, weights_, frame().pixels(), encoding_);
+  const detail::FactorLayout brdf = detail::directions_layout(frame(), 3),
+                             texels = {std::size_t(frame().width), 1};
+  detail::put_factors(w, means_, dims, encoding_, brdf);
+  detail::put_factors(w, basis_, dims, encoding_, brdf);
+  detail::put_factors(w, weights_, frame().pixels(), encoding_, texels);
   return std::move(w.bytes);
 }
 
@@ -242,12 +244,13 @@ std::unique_ptr<Representation> read_lpca(std::span<const std::uint8_t> payload,
   if (texels < 2) r.fail("an LPCA needs at least 2 texels");
   const std::size_t k = detail::get_count(r, 1, max_clusters(texels), "clusters");
   const std::size_t c = detail::get_count(r, 1, max_components(texels, dims), "components");
-  // Every stored value takes at least a byte: a bound that keeps the sizes below from
-  // overflowing.
-  if (double(k) * double(c + 1) * double(dims) + double(texels) * double(c + 1) >
-      double(r.remaining()))
-    r.fail(fmt::format("{} clusters of {} components do not fit the file", k, c));
   const FactorEncoding e = detail::get_encoding(r);
+  // The cluster indices take a byte each whatever the encoding.
+  if (double(texels) > double(r.remaining()))
+    r.fail(fmt::format("{} texels' cluster indices do not fit the file", texels));
+  detail::expect_bytes_for(
+      r, double(k) * double(c + 1) * double(dims) + double(texels) * double(c + 1), e,
+      fmt::format("{} clusters of {} components", k, c));
   LpcaRounds rounds;
   rounds.rounds = r.get<std::uint32_t>("rounds");
   const auto converged = r.get<std::uint8_t>("converged");
@@ -258,9 +261,11 @@ std::unique_ptr<Representation> read_lpca(std::span<const std::uint8_t> payload,
     a = k <= 256 ? r.get<std::uint8_t>("cluster index") : r.get<std::uint16_t>("cluster index");
     if (a >= k) r.fail(fmt::format("cluster index {} of {} clusters", a, k));
   }
-  auto means = detail::get_factors_as(r, payload, k, dims, e, "cluster means");
-  auto basis = detail::get_factors_as(r, payload, k * c, dims, e, "cluster components");
-  auto weights = detail::get_factors_as(r, payload, c, texels, e, "texel weights");
+  const detail::FactorLayout brdf = detail::directions_layout(f, 3),
+                             grid = {std::size_t(f.width), 1};
+  auto means = detail::get_factors_as(r, payload, k, dims, e, "cluster means", brdf);
+  auto basis = detail::get_factors_as(r, payload, k * c, dims, e, "cluster components", brdf);
+  auto weights = detail::get_factors_as(r, payload, c, texels, e, "texel weights", grid);
   detail::expect_end(r);
   return std::make_unique<Lpca>(std::move(f), k, c, e, std::move(cluster), std::move(means),
                                 std::move(basis), std::move(weights), rounds);

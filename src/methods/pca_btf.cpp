@@ -92,9 +92,9 @@ std::vector<std::uint8_t> PcaBtf::payload() const {
   w.put<std::uint32_t>(std::uint32_t(components_));
   w.put<std::uint8_t>(std::uint8_t(encoding_));
   const std::size_t d = frame().pixels() * 3, images = frame().lights.size() * frame().views.size();
-  detail::put_factors(w, mean_, d, encoding_);
-  detail::put_factors(w, eigen_, d, encoding_);
-  detail::put_factors(w, weights_, images, encoding_);
+  detail::put_factors(w, mean_, d, encoding_, detail::image_layout(frame()));
+  detail::put_factors(w, eigen_, d, encoding_, detail::image_layout(frame()));
+  detail::put_factors(w, weights_, images, encoding_, detail::directions_layout(frame(), 1));
   return std::move(w.bytes);
 }
 
@@ -145,14 +145,14 @@ std::unique_ptr<Representation> read_pca_btf(std::span<const std::uint8_t> paylo
   const std::size_t n = f.lights.size() * f.views.size(), d = f.pixels() * 3;
   if (n < 2) r.fail("a PCA BTF needs at least 2 images");
   const std::size_t c = detail::get_count(r, 1, max_components(n, d), "eigen-images");
-  // Every stored value takes at least a byte: a bound that keeps the sizes below from
-  // overflowing.
-  if (double(c + 1) * double(d) + double(c) * double(n) > double(r.remaining()))
-    r.fail(fmt::format("{} eigen-images of {} values do not fit the file", c, d));
   const FactorEncoding e = detail::get_encoding(r);
-  auto mean = detail::get_factors_as(r, payload, 1, d, e, "mean image");
-  auto eigen = detail::get_factors_as(r, payload, c, d, e, "eigen-images");
-  auto weights = detail::get_factors_as(r, payload, c, n, e, "weights");
+  detail::expect_bytes_for(r, double(c + 1) * double(d) + double(c) * double(n), e,
+                           fmt::format("{} eigen-images of {} values", c, d));
+  const detail::FactorLayout image = detail::image_layout(f),
+                             pairs = detail::directions_layout(f, 1);
+  auto mean = detail::get_factors_as(r, payload, 1, d, e, "mean image", image);
+  auto eigen = detail::get_factors_as(r, payload, c, d, e, "eigen-images", image);
+  auto weights = detail::get_factors_as(r, payload, c, n, e, "weights", pairs);
   detail::expect_end(r);
   return std::make_unique<PcaBtf>(std::move(f), c, e, std::move(mean), std::move(eigen),
                                   std::move(weights));

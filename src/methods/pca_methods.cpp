@@ -80,17 +80,22 @@ std::vector<float> transposed(std::span<const float> v, std::size_t rows, std::s
 
 FactorEncoding get_encoding(ByteReader& r) {
   const auto e = r.get<std::uint8_t>("factor encoding");
-  if (e > 2) r.fail(fmt::format("unknown factor encoding {}", e));
+  if (e > 3) r.fail(fmt::format("unknown factor encoding {}", e));
   return FactorEncoding(e);
 }
 
 std::vector<float> get_factors_as(ByteReader& r, std::span<const std::uint8_t> payload,
                                   std::size_t rows, std::size_t cols, FactorEncoding e,
-                                  const char* field) {
+                                  const char* field, FactorLayout layout) {
   if (r.remaining() > 0 && payload[r.pos()] != std::uint8_t(e))
     r.fail(fmt::format("{} are stored as encoding {}, the model's factors as {} ({})", field,
                        payload[r.pos()], std::uint8_t(e), to_string(e)));
-  return get_factors(r, rows, cols, field);
+  return get_factors(r, rows, cols, field, layout);
+}
+
+void expect_bytes_for(ByteReader& r, double values, FactorEncoding e, const std::string& what) {
+  if (e != FactorEncoding::kCompact && values > double(r.remaining()))
+    r.fail(fmt::format("{} do not fit the file", what));
 }
 
 void expect_end(ByteReader& r) {

@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "btfgmm/methods/representation.hpp"
+#include "methods/factors.hpp"
 #include "model/byte_io.hpp"
 
 namespace btfgmm::detail {
@@ -53,7 +54,12 @@ std::vector<float> transposed(std::span<const float> v, std::size_t rows, std::s
 FactorEncoding get_encoding(ByteReader& r);
 std::vector<float> get_factors_as(ByteReader& r, std::span<const std::uint8_t> payload,
                                   std::size_t rows, std::size_t cols, FactorEncoding e,
-                                  const char* field);
+                                  const char* field, FactorLayout layout = {});
+// Before sizes from the file are multiplied: every value stored in a fixed-size encoding
+// takes at least a byte, so more `values` than bytes left fail ("<what> do not fit the
+// file"); the compact block bounds its own sizes (methods/compact_factors.hpp).
+void expect_bytes_for(ByteReader& r, double values, FactorEncoding e, const std::string& what);
+
 // r.fail() unless the payload is used up; the method's flags must be 0.
 void expect_end(ByteReader& r);
 void expect_no_flags(ByteReader& r, std::uint32_t flags);

@@ -114,9 +114,9 @@ std::vector<std::uint8_t> PcaRf::payload() const {
   w.put<std::uint32_t>(std::uint32_t(components_));
   w.put<std::uint8_t>(std::uint8_t(encoding_));
   const std::size_t d = frame().pixels() * 3;
-  detail::put_factors(w, means_, d, encoding_);
-  detail::put_factors(w, eigen_, d, encoding_);
-  detail::put_factors(w, weights_, frame().lights.size(), encoding_);
+  detail::put_factors(w, means_, d, encoding_, detail::image_layout(frame()));
+  detail::put_factors(w, eigen_, d, encoding_, detail::image_layout(frame()));
+  detail::put_factors(w, weights_, frame().lights.size(), encoding_);  // a line of lights
   return std::move(w.bytes);
 }
 
@@ -164,13 +164,12 @@ std::unique_ptr<Representation> read_pca_rf(std::span<const std::uint8_t> payloa
   const std::size_t ni = f.lights.size(), nv = f.views.size(), d = f.pixels() * 3;
   if (ni < 2) r.fail("a PCA RF needs at least 2 lights");
   const std::size_t c = detail::get_count(r, 1, max_components(ni, d), "eigen-images per view");
-  // Every stored value takes at least a byte: a bound that keeps the sizes below from
-  // overflowing.
-  if (double(nv) * (double(c + 1) * double(d) + double(c) * double(ni)) > double(r.remaining()))
-    r.fail(fmt::format("{} views of {} eigen-images do not fit the file", nv, c));
   const FactorEncoding e = detail::get_encoding(r);
-  auto means = detail::get_factors_as(r, payload, nv, d, e, "mean images");
-  auto eigen = detail::get_factors_as(r, payload, nv * c, d, e, "eigen-images");
+  detail::expect_bytes_for(r, double(nv) * (double(c + 1) * double(d) + double(c) * double(ni)), e,
+                           fmt::format("{} views of {} eigen-images", nv, c));
+  const detail::FactorLayout image = detail::image_layout(f);
+  auto means = detail::get_factors_as(r, payload, nv, d, e, "mean images", image);
+  auto eigen = detail::get_factors_as(r, payload, nv * c, d, e, "eigen-images", image);
   auto weights = detail::get_factors_as(r, payload, nv * c, ni, e, "weights");
   detail::expect_end(r);
   return std::make_unique<PcaRf>(std::move(f), c, e, std::move(means), std::move(eigen),

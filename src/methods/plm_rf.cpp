@@ -136,8 +136,8 @@ std::vector<std::uint8_t> PlmRf::payload() const {
   w.put<std::uint32_t>(std::uint32_t(degree_));
   w.put<std::uint32_t>(std::uint32_t(iterations_));
   w.put<float>(scale_);
-  detail::put_factors(w, lobes_, image_values(frame()), encoding_);
-  detail::put_factors(w, polynomials_, frame().lights.size() * 3, encoding_);
+  detail::put_factors(w, lobes_, image_values(frame()), encoding_, detail::image_layout(frame()));
+  detail::put_factors(w, polynomials_, frame().lights.size() * 3, encoding_, {0, 3});
   return std::move(w.bytes);
 }
 
@@ -164,11 +164,12 @@ std::unique_ptr<Representation> read_plm_rf(std::span<const std::uint8_t> payloa
     r.fail(fmt::format("plm-rf value scale {} is not positive", scale));
   const std::size_t n = image_values(frame), ni = frame.lights.size(), nv = frame.views.size();
   const std::uint8_t encoding = detail::ByteReader(r).get<std::uint8_t>("factor encoding");
-  std::vector<float> lobes = detail::get_factors(r, nv * PlmRf::kLobeParameters, n, "plm-rf lobes");
+  std::vector<float> lobes = detail::get_factors(r, nv * PlmRf::kLobeParameters, n, "plm-rf lobes",
+                                                 detail::image_layout(frame));
   if (detail::ByteReader(r).get<std::uint8_t>("factor encoding") != encoding)
     r.fail("plm-rf's lobes and polynomials are stored in different encodings");
   std::vector<float> polynomials =
-      detail::get_factors(r, nv * (degree + 1), ni * 3, "plm-rf polynomials");
+      detail::get_factors(r, nv * (degree + 1), ni * 3, "plm-rf polynomials", {0, 3});
   if (r.remaining() != 0) r.fail(fmt::format("{} bytes follow the model", r.remaining()));
   return std::make_unique<PlmRf>(std::move(frame), degree, scale, std::move(lobes),
                                  std::move(polynomials), FactorEncoding(encoding), iterations);

@@ -99,7 +99,8 @@ std::vector<std::uint8_t> PtmRf::payload() const {
   detail::ByteWriter w;
   detail::put_frame(w, frame());
   w.put<std::uint32_t>(std::uint32_t(kCoefficients));
-  detail::put_factors(w, coefficients_, image_values(frame()), encoding_);
+  detail::put_factors(w, coefficients_, image_values(frame()), encoding_,
+                      detail::image_layout(frame()));
   return std::move(w.bytes);
 }
 
@@ -204,7 +205,8 @@ std::unique_ptr<Representation> read_ptm_rf(std::span<const std::uint8_t> payloa
   const std::size_t n = image_values(frame);
   const std::uint8_t encoding = detail::ByteReader(r).get<std::uint8_t>("factor encoding");
   std::vector<float> coefficients =
-      detail::get_factors(r, frame.views.size() * PtmRf::kCoefficients, n, "ptm-rf coefficients");
+      detail::get_factors(r, frame.views.size() * PtmRf::kCoefficients, n, "ptm-rf coefficients",
+                          detail::image_layout(frame));
   if (r.remaining() != 0) r.fail(fmt::format("{} bytes follow the model", r.remaining()));
   return std::make_unique<PtmRf>(std::move(frame), std::move(coefficients),
                                  FactorEncoding(encoding));

@@ -68,8 +68,8 @@ const std::vector<MethodInfo>& table() {
        .fit = fit_gaussian_mixture,
        .read = read_gaussian_mixture,
        .ladder = mixture_ladder,
-       .fit_encoding = FactorEncoding::kQ8,  // the compact format
-       .smallest_encoding = FactorEncoding::kQ8},
+       .fit_encoding = FactorEncoding::kCompact,  // its own compact format
+       .smallest_encoding = FactorEncoding::kCompact},
       {.name = "pca-btf",
        .title = "PCA BTF: one PCA of all images",
        .citation = "Koudelka, Magda, Belhumeur, Kriegman 2003",

@@ -34,10 +34,11 @@ struct MethodInfo {
   // (as Table 2 counts them), smallest model first; `sweep` fits each.
   std::function<std::vector<MethodSettings>(const ModelFrame& frame)> ladder;
   // The storage `fit` uses when none is asked (read through default_file_encoding), and the
-  // smallest the method takes (docs/METHODS.md, "Storage"). For the mixture q8 names its
-  // compact format (fit_gaussian_mixture stores q8 so); f16 and f32 are its exact storages.
-  FactorEncoding fit_encoding = FactorEncoding::kQ8;
-  FactorEncoding smallest_encoding = FactorEncoding::kQ8;
+  // smallest the method takes (docs/METHODS.md, "Storage"): compact (quantised with a stated
+  // step, predicted from neighbours, zstd), the mixture's in its own compact format; f16 and
+  // f32 are the mixture's exact storages.
+  FactorEncoding fit_encoding = FactorEncoding::kCompact;
+  FactorEncoding smallest_encoding = FactorEncoding::kCompact;
 };
 
 // The encoding of the file `fit` writes for `method` when no precision is asked: the one place

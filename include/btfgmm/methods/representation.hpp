@@ -40,9 +40,12 @@ enum class FactorEncoding : std::uint8_t {
   kF32 = 0,  // 32-bit floats
   kF16 = 1,  // 16-bit IEEE half floats
   kQ8 = 2,   // 8 bits per value, with a 32-bit offset and scale per row (a component)
+  // Quantised with a power-of-two step per row stated in the file, predicted from the
+  // neighbouring pixels or directions, zstd (format 7 on; the mixture: its compact encoding)
+  kCompact = 3,
 };
 std::string_view to_string(FactorEncoding e);
-// "f32", "f16" or "q8"; anything else throws Error(kArgument) naming `option`.
+// "compact", "f32", "f16" or "q8"; anything else throws Error(kArgument) naming `option`.
 FactorEncoding parse_factor_encoding(std::string_view text, std::string_view option);
 
 // What fitting any method takes. A size left at 0 takes the method's default.
