@@ -19,6 +19,8 @@ namespace {
 // Exponents of absent (padding) columns: their exp is exactly 0.
 constexpr float kAbsentExponent = -1e30f;
 constexpr std::size_t kAlign = 64;
+// The values a loop of the tables or of the fold must have to be shared between threads.
+constexpr std::size_t kParallelWork = std::size_t(1) << 18;
 
 // The sum of a chunk's lane sums in a fixed order (halving), whatever the vector width.
 float fold_lanes(float (&lane)[kChunk]) {
@@ -94,7 +96,9 @@ void SparsePass::set_tables(const ProductMixture& mix) {
   std::fill(view_.begin(), view_.end(), 0.0f);
   std::fill(colour_.begin(), colour_.end(), 0.0f);
   std::fill(spatial_.begin(), spatial_.end(), 0.0f);
-#pragma omp parallel for num_threads(threads_) schedule(static)
+  // Threads only where the tables are large: a parallel region costs more than small ones.
+  const bool large = s_.pixels() * m_ >= kParallelWork;
+#pragma omp parallel for num_threads(threads_) schedule(static) if (large)
   for (std::ptrdiff_t i = 0; i < std::ptrdiff_t(m_); ++i) {
     const std::size_t k = std::size_t(i), c = order_[k];
     const double base = log_weight_base(mix, c);
@@ -270,7 +274,7 @@ void SparsePass::fold_lights(std::vector<double>& t) {
   constexpr std::size_t kBlock = 4096;
   const std::size_t shared = at_light(), st = stride_, blocks = (shared + kBlock - 1) / kBlock;
   double* total = t.data();
-#pragma omp parallel num_threads(threads_)
+#pragma omp parallel num_threads(threads_) if (shared * held >= kParallelWork)
   {
 #pragma omp for schedule(static)
     for (std::ptrdiff_t b = 0; b < std::ptrdiff_t(blocks); ++b) {
