@@ -69,6 +69,10 @@ struct Result {
   double fit_cpu_seconds = 0, decode_cpu_seconds = 0;  // CPU time of all threads
   double per_iteration = 0;                            // mean of iterations 2..K
   double per_epoch = 0, validation_rmse = 0;           // of the refinement (--refine-epochs)
+  double weighed = 1;        // the share of the samples' components its steps weighed
+  double cpu_per_epoch = 0;  // CPU seconds (all threads) of an epoch
+  double refit_subsample = 0, refit_whole = 0;  // the colour refit's sums: seconds
+  std::size_t refit_samples = 0, training_samples = 0;
   btfgmm::EmStageSeconds stages;
   long peak_kib = 0;
   int threads = 0;
@@ -129,13 +133,23 @@ void decode_and_save(const Options& o, const btfgmm::SampleSet& s,
 // an epoch (its steps and validations, not the colour refits around them).
 void refine(const Options& o, int threads, const btfgmm::SampleSet& s, btfgmm::ProductMixture& mix,
             Result& out) {
+  // The normal equations of the colour refit on its subsample and on every training sample.
+  const std::size_t stride = std::max<std::size_t>(1, s.size() / btfgmm::kColourRefitSamples);
+  double t0 = now();
+  out.refit_samples = btfgmm::colour_normal_equations(s, mix, threads, stride, true).samples;
+  out.refit_subsample = now() - t0;
+  t0 = now();
+  out.training_samples = btfgmm::colour_normal_equations(s, mix, threads, 1, true).samples;
+  out.refit_whole = now() - t0;
   btfgmm::GradientConfig g;
   g.steps = btfgmm::kMaxRefineSteps;
   g.max_epochs = o.refine_epochs;
   g.seconds = btfgmm::kMaxRefineSeconds;
   const btfgmm::PredictionRefinement r = btfgmm::refine_for_prediction(s, mix, threads, g);
   out.per_epoch = r.gradient_seconds / std::max(1, r.epochs);
+  out.cpu_per_epoch = r.gradient_cpu_seconds / std::max(1, r.epochs);
   out.validation_rmse = btfgmm::prediction_rmse(r.error_final, r.samples);
+  out.weighed = r.weighed;
 }
 
 // btfgmm's fit on `threads` threads; `tile_wraps` off fits the plain model, as Armadillo.
@@ -290,9 +304,21 @@ bool run_comparison(const Options& o, double n, double pairs) {
     std::printf(
         "\nrefinement for the prediction: an epoch (every training sample once, with its "
         "validations) %.3f s beside an EM iteration %.3f s: ratio %.2f; validation RMSE %.3f "
-        "levels after %d epochs\n",
+        "levels after %d epochs; its steps weighed %.1f %% of the samples' components\n",
         ours.per_epoch, ours.per_iteration, ours.per_epoch / ours.per_iteration,
-        ours.validation_rmse, o.refine_epochs);
+        ours.validation_rmse, o.refine_epochs, 100.0 * ours.weighed);
+  if (o.refine_epochs > 0)
+    std::printf(
+        "in CPU seconds (all threads): an epoch %.3f s beside an EM iteration %.3f s (the fit's "
+        "%d iterations' mean): ratio %.2f\n",
+        ours.cpu_per_epoch, ours.fit_cpu_seconds / o.iterations, o.iterations,
+        ours.cpu_per_epoch / (ours.fit_cpu_seconds / o.iterations));
+  if (o.refine_epochs > 0)
+    std::printf(
+        "the colour refit's normal equations: %zu samples (its subsample) %.3f s, every "
+        "training sample (%zu) %.3f s: %.2f and %.2f EM iterations\n",
+        ours.refit_samples, ours.refit_subsample, ours.training_samples, ours.refit_whole,
+        ours.refit_subsample / ours.per_iteration, ours.refit_whole / ours.per_iteration);
   std::printf(
       "\nbtfgmm decode of the whole tile: %.0f predictions with M = %zu in %.2f s (CPU %.2f s; "
       "%.2f ns per prediction x component)\n",

@@ -197,18 +197,12 @@ bool any_process(Communicator* processes, bool mine) {
 
 namespace {
 
-// About the samples the closed-form colour refit takes: 3 M unknowns against a quarter of a
-// million equations; the sums over every image of a large tile (M^2 / 2 products a sample)
-// would cost more than EM's iterations. The Adam epochs fit the colour means to every
-// training sample.
-constexpr std::size_t kRefitSamples = 250000;
-
 // The colour means of `mix` refitted on the training samples of the refit's subsample, kept
 // where they lower the validation error `error`; returns the validation error of `mix`. Set
 // `stop` ends it without a refit.
 double refit_where_it_validates(const SampleSet& samples, ProductMixture& mix, int threads,
                                 double error, const std::atomic<bool>* stop) {
-  const std::size_t stride = detail::subsample_stride(samples.size(), kRefitSamples);
+  const std::size_t stride = detail::subsample_stride(samples.size(), kColourRefitSamples);
   ProductMixture trial = mix;
   const ColourNormalEquations eq =
       colour_normal_equations(samples, trial, threads, stride, true, stop);

@@ -8,6 +8,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdint>
+#include <ctime>
 #include <limits>
 #include <numeric>
 #include <random>
@@ -19,6 +20,7 @@
 #include "model/grid_weights.hpp"
 #include "model/mixture_internal.hpp"
 #include "model/refine_internal.hpp"
+#include "model/refine_pass.hpp"
 
 namespace btfgmm {
 
@@ -65,10 +67,11 @@ struct PassSums {
 };
 
 // A pass of the prediction's squared error (prediction_gradient, model/refine.hpp) over the
-// samples of a selection (detail::Selection), with its gradient or the error alone; its tables
-// and sums kept from one pass to the next (the Adam steps make one pass each). Every weight
-// and per-light sum in `Real`; each light's sums in double, folded in light order over the
-// processes (detail::fold_over_processes): the same for any number of threads and processes.
+// samples of a selection (detail::Selection), with its gradient or the error alone, weighing
+// every component of every sample: the reference the float pass the Adam steps take
+// (detail::SparsePass, refine_pass.cpp) is tested against, taken with Real = double. Every
+// weight and per-light sum in `Real`; each light's sums in double, folded in light order over
+// the processes (detail::fold_over_processes): the same for any number of threads and processes.
 template <class Real>
 class GradientPass {
  public:
@@ -312,7 +315,7 @@ PredictionGradient prediction_gradient(const SampleSet& samples, const ProductMi
                                        int threads, std::size_t stride, PassPrecision precision) {
   const detail::Selection all{std::max<std::size_t>(stride, 1), 0, detail::Selection::Part::kAll};
   if (precision == PassPrecision::kFloat)
-    return GradientPass<float>(samples, mix.size(), threads)(mix, all);
+    return detail::SparsePass(samples, mix.size(), threads)(mix, all);
   return GradientPass<double>(samples, mix.size(), threads)(mix, all);
 }
 
@@ -326,8 +329,7 @@ namespace detail {
 
 std::pair<double, std::size_t> selection_error(const SampleSet& samples, const ProductMixture& mix,
                                                int threads, const Selection& selection) {
-  const PredictionGradient g =
-      GradientPass<float>(samples, mix.size(), threads)(mix, selection, false);
+  const PredictionGradient g = SparsePass(samples, mix.size(), threads)(mix, selection, false);
   return {g.error, g.samples};
 }
 
@@ -438,7 +440,8 @@ std::size_t minibatches(const SampleSet& samples, std::size_t batch) {
 // Where the steps are, for the progress and the stop.
 struct Epochs {
   std::chrono::steady_clock::time_point start = std::chrono::steady_clock::now();
-  double train_error = 0.0;
+  std::clock_t cpu_start = std::clock();
+  double train_error = 0.0, weighed = 0.0;  // weighed: PredictionGradient::weighed x samples
   std::size_t train_samples = 0;
   double elapsed() const {
     return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
@@ -464,11 +467,11 @@ void report(const GradientConfig& config, const Epochs& at, const Convergence& r
 
 // Validation after a step: the lowest error's mixture kept in `best`; the progress reported.
 // Returns whether the rule has converged.
-bool validate(const SampleSet& samples, const ProductMixture& mix, int threads,
-              const GradientConfig& config, const Epochs& at, Convergence& rule,
-              ProductMixture& best, PredictionRefinement& out) {
+bool validate(detail::SparsePass& pass, const ProductMixture& mix, const GradientConfig& config,
+              const Epochs& at, Convergence& rule, ProductMixture& best,
+              PredictionRefinement& out) {
   const detail::Selection validation{1, 0, detail::Selection::Part::kValidation};
-  const double e = detail::selection_error(samples, mix, threads, validation).first;
+  const double e = pass(mix, validation, false).error;
   ++out.passes;
   if (e < out.error_final) {
     best = mix;
@@ -506,7 +509,7 @@ void gradient_epochs(const SampleSet& samples, ProductMixture& mix, int threads,
   out.training_samples = samples.size() - out.samples;
   out.batch_samples = out.training_samples / batches;
   const std::size_t validate_every = std::max<std::size_t>(1, batches / 4);
-  GradientPass<float> pass(samples, mix.size(), threads);
+  SparsePass pass(samples, mix.size(), threads);
   ProductMixture best = mix;
   Adam adam(pack(mix));
   Convergence rule;
@@ -521,13 +524,14 @@ void gradient_epochs(const SampleSet& samples, ProductMixture& mix, int threads,
     out.epochs = epoch;
     std::iota(order.begin(), order.end(), std::size_t(0));
     std::shuffle(order.begin(), order.end(), draw);
-    at.train_error = 0.0;
+    at.train_error = at.weighed = 0.0;
     at.train_samples = 0;
     for (std::size_t k = 0; k < batches && !done; ++k) {
       const PredictionGradient g = pass(mix, {batches, order[k], Selection::Part::kTraining});
       ++out.passes;
       at.train_error += g.error;
       at.train_samples += g.samples;
+      at.weighed += g.weighed * double(g.samples);
       const double warm_up = std::min(1.0, double(adam.t + 1) / kWarmUpSteps);
       const double scale = warm_up * rule.rate_scale;
       adam.step(pack(g), config.rate * scale, config.colour_rate * scale);
@@ -535,13 +539,15 @@ void gradient_epochs(const SampleSet& samples, ProductMixture& mix, int threads,
       keep_within_bounds(adam.theta, mix);
       ++out.steps;
       const bool due = (k + 1) % validate_every == 0 || k + 1 == batches;
-      const bool converged = due && validate(samples, mix, threads, config, at, rule, best, out);
+      const bool converged = due && validate(pass, mix, config, at, rule, best, out);
       done = steps_end(samples, config, at, out) || converged;
-      if (done && !due) validate(samples, mix, threads, config, at, rule, best, out);
+      if (done && !due) validate(pass, mix, config, at, rule, best, out);
     }
   }
   out.training_rmse = prediction_rmse(at.train_error, at.train_samples);
+  out.weighed = at.train_samples > 0 ? at.weighed / double(at.train_samples) : 1.0;
   out.gradient_seconds = at.elapsed();
+  out.gradient_cpu_seconds = double(std::clock() - at.cpu_start) / CLOCKS_PER_SEC;
   report(config, at, rule, out, prediction_rmse(out.error_final, out.samples), true);
   mix = std::move(best);
 }

@@ -54,6 +54,12 @@ ColourNormalEquations colour_normal_equations(const SampleSet& samples, const Pr
                                               bool training = false,
                                               const std::atomic<bool>* stop = nullptr);
 
+// About the samples the closed-form colour refit of refine_for_prediction takes: 3 M unknowns
+// against a quarter of a million equations; the sums over every image of a large tile (M^2 / 2
+// products a sample) would cost more than EM's iterations (docs/ALGORITHM.md, "The cost of
+// an epoch"). The Adam epochs fit the colour means to every training sample.
+constexpr std::size_t kColourRefitSamples = 250000;
+
 // The RMSE (model units: levels) of a squared error summed over `samples` samples' three
 // channels.
 double prediction_rmse(double squared_error, std::size_t samples);
@@ -92,10 +98,16 @@ struct PredictionGradient {
   std::vector<std::array<double, kVariables>> mean;  // dE/dmu_mn, n = 0..8
   std::vector<std::array<double, kInputs>> log_var;  // dE/ds_mn, n = 0..5
   std::size_t samples = 0;
+  // The fraction of the samples' components weighed: 1 in the double pass; the float pass
+  // skips chunks of components whose weights are negligible (below e^-17.5 of a sample's
+  // weights together) and weighs this share.
+  double weighed = 1.0;
 };
-// kDouble: every weight and sum in double (std::exp); kFloat: the weights and the per-sample
-// sums in float (fast_exp, vectorised over the components), the totals in double, several
-// times faster: what the Adam steps use (within 1e-4 relative of kDouble, tests).
+// kDouble: every weight and sum in double (std::exp), every component of every sample;
+// kFloat: the weights and the per-sample sums in float (fast_exp, vectorised over chunks of
+// 16 components), the totals in double, only the chunks of components whose weights are not
+// negligible for the sample weighed (docs/ALGORITHM.md, "The cost of an epoch"): what the
+// Adam steps use (within 1e-4 relative of kDouble, tests).
 enum class PassPrecision { kDouble, kFloat };
 PredictionGradient prediction_gradient(const SampleSet& samples, const ProductMixture& mix,
                                        int threads = 0, std::size_t stride = 1,
@@ -189,9 +201,11 @@ struct PredictionRefinement {
   bool timed_out = false;      // ended by GradientConfig::seconds
   std::size_t samples = 0;     // validation samples, on which the errors are
   std::size_t training_samples = 0;
-  std::size_t batch_samples = 0;  // training samples of a minibatch (about)
-  double seconds = 0.0;           // the whole refinement's
-  double gradient_seconds = 0.0;  // its epochs' (steps and validations)
+  std::size_t batch_samples = 0;      // training samples of a minibatch (about)
+  double seconds = 0.0;               // the whole refinement's
+  double gradient_seconds = 0.0;      // its epochs' (steps and validations)
+  double gradient_cpu_seconds = 0.0;  // the same epochs' CPU time, of every thread
+  double weighed = 1.0;               // PredictionGradient::weighed over the last epoch's steps
 };
 
 // The mixture EM fitted, refined for the prediction's error (docs/ALGORITHM.md, "Fitting for
