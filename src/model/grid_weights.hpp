@@ -8,6 +8,7 @@
 #include <omp.h>
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <cstdint>
 #include <vector>
@@ -132,9 +133,11 @@ class GridWeights {
   // (acc = make(), one per thread), then reduce(acc) for that light, in light order and one
   // thread at a time (reduce adds acc into the totals and clears it). The same bit for bit
   // with any number of threads, and, folded over processes (fold_over_processes), with any
-  // number of processes.
+  // number of processes. A `stop` set ends it at the next light (the lights left are not
+  // visited, their reduce sees an empty acc), so that Ctrl-C is answered within a light's time.
   template <class Make, class Visit, class Reduce>
-  void reduce_over_lights(int threads, Make&& make, Visit&& visit, Reduce&& reduce) const {
+  void reduce_over_lights(int threads, Make&& make, Visit&& visit, Reduce&& reduce,
+                          const std::atomic<bool>* stop = nullptr) const {
     const std::ptrdiff_t lights = std::ptrdiff_t(s_.held_lights());
     const int n_threads = threads > 0 ? threads : omp_get_max_threads();
 #pragma omp parallel num_threads(n_threads)
@@ -143,8 +146,9 @@ class GridWeights {
       Scratch sc(m_);
 #pragma omp for ordered schedule(dynamic, 1)
       for (std::ptrdiff_t i = 0; i < lights; ++i) {
-        visit_light(s_.first_light + std::size_t(i), sc,
-                    [&](const SampleWeights& w) { visit(w, acc); });
+        if (!stop || !stop->load(std::memory_order_relaxed))
+          visit_light(s_.first_light + std::size_t(i), sc,
+                      [&](const SampleWeights& w) { visit(w, acc); });
 #pragma omp ordered
         reduce(acc);
       }

@@ -109,7 +109,8 @@ ColourNormalEquations colour_normal_equations(const SampleSet& samples, const Pr
               for (std::size_t c = 0; c < 3; ++c) t[at_energy + c] += acc.energy[c];
               count += acc.samples;
               acc.clear();
-            });
+            },
+            stop);
         t[at_count] += double(count);
       });
   eq.gram.assign(total.begin(), total.begin() + std::ptrdiff_t(at_rhs));
