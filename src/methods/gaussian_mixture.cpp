@@ -5,6 +5,7 @@
 
 #include "btfgmm/core/error.hpp"
 #include "btfgmm/core/text.hpp"
+#include "btfgmm/methods/fit_options.hpp"
 #include "btfgmm/model/decode.hpp"
 #include "btfgmm/model/fit.hpp"
 #include "btfgmm/model/model_file.hpp"
@@ -94,12 +95,28 @@ FactorEncoding GaussianMixture::encoding() const {
                                                    : FactorEncoding::kF32;
 }
 
+namespace {
+
+// A ladder's or a caller's settings as the fit's options, so that the registry's fit takes the
+// one route to a mixture's fit (mixture_fit_request: the defaults, the checks, the file).
+FitOptions mixture_options(const MethodSettings& s) {
+  FitOptions o;
+  o.components = s.components;
+  o.clusters = s.clusters;
+  o.degree = s.degree;
+  o.iterations = s.iterations;
+  o.levels = s.levels;
+  o.seed = s.seed;
+  o.threads = s.threads;
+  o.precision = to_string(s.encoding);
+  return o;
+}
+
+}  // namespace
+
 std::unique_ptr<Representation> fit_gaussian_mixture(const Btf& tile, const MethodSettings& s) {
-  if (s.clusters != 0)
-    throw Error(Error::Kind::kArgument,
-                fmt::format("{} applies to lpca only; the Gaussian mixture's size is {}",
-                            option_name("clusters"), option_name("components")));
-  FitConfig config = mixture_config(s.components, s.iterations, s.seed, s.threads);
+  const FitRequest request = mixture_fit_request(mixture_options(s), "", "");
+  FitConfig config = request.config;
   config.em.stop = s.stop;
   EmCallback progress;
   if (s.progress)
@@ -110,12 +127,7 @@ std::unique_ptr<Representation> fit_gaussian_mixture(const Btf& tile, const Meth
   // Stopped in EM (no model) or in the refinement (a model of fewer steps): stopped either way.
   if (model.mixture.size() == 0 || (s.stop && s.stop->load()))
     throw Error(Error::Kind::kArgument, "the Gaussian mixture's fit was stopped");
-  // compact (or q8, its place before compact factors came): the mixture's compact encoding
-  // (docs/FORMAT.md).
-  const bool compact = s.encoding == FactorEncoding::kCompact || s.encoding == FactorEncoding::kQ8;
-  model.precision = s.encoding == FactorEncoding::kF16 ? Precision::kF16
-                    : compact                          ? Precision::kCompact
-                                                       : Precision::kF32;
+  model.precision = request.precision;
   return std::make_unique<GaussianMixture>(std::move(model));
 }
 
