@@ -125,9 +125,26 @@ void print_refinement(const btfgmm::GradientProgress& p, double& printed_at) {
       p.steps > 0 ? fmt::format("step {}/{}", p.step, p.steps) : fmt::format("step {}", p.step);
   fmt::print(stderr,
              "refining for the prediction: epoch {:>3} {:<12} validation RMSE {:.3f} levels "
-             "(lowest {:.3f})  training RMSE {:.3f}  {} of at most {}\n",
-             p.epoch, bound, p.validation_rmse, p.best_validation_rmse, p.training_rmse,
+             "(lowest {:.3f})  training RMSE {}  {} of at most {}\n",
+             p.epoch, bound, p.validation_rmse, p.best_validation_rmse,
+             p.step > 0 ? fmt::format("{:.3f}", p.training_rmse) : std::string("(no step yet)"),
              human_seconds(p.elapsed), human_seconds(p.seconds));
+}
+
+// What the fit will take, said before EM: its iterations at the time one takes (timed on a
+// few lights), then the refinement's bound.
+void print_plan(const btfgmm::FitPlan& p) {
+  const double em = p.em_iteration_seconds * double(p.iterations);
+  const std::string refinement =
+      p.refinement_seconds > 0
+          ? fmt::format("; then the refinement for the prediction, at most {} (--refine-seconds)",
+                        human_seconds(p.refinement_seconds))
+          : std::string();
+  fmt::print(stderr,
+             "plan: EM, at most {} iterations of M = {} at about {} each (timed on a few "
+             "lights): about {}{}; in all at most about {}\n",
+             p.iterations, p.components, human_seconds(p.em_iteration_seconds), human_seconds(em),
+             refinement, human_seconds(em + p.refinement_seconds));
 }
 
 // One EM iteration; the time left is estimated from this run's iterations. The first
@@ -231,6 +248,7 @@ void run_mixture_fit(const FitArguments& options,
     log = open_iteration_log(o, r);
     stop_on_signals.emplace();
   };
+  if (!o.quiet) observer.planned = print_plan;
   observer.iteration = [&](const btfgmm::EmProgress& p) {
     if (!o.quiet) print_iteration(p, start);
     if (log) log->add({p.log_likelihood, p.seconds, std::uint32_t(p.components)});

@@ -66,6 +66,12 @@ TEST_F(Cli, GenerateInfoFitInfoEvalDecode) {
   ASSERT_EQ(r.status, 0) << r.out;
   EXPECT_NE(r.out.find("iteration   3/3"), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("ETA"), std::string::npos) << r.out;
+  // Before EM, what the fit will take.
+  EXPECT_LT(r.out.find("plan: EM, at most 3 iterations of M = 5 at about "),
+            r.out.find("iteration   1/3"))
+      << r.out;
+  EXPECT_NE(r.out.find("then the refinement for the prediction, at most 30.0 s"), std::string::npos)
+      << r.out;
   // The refinement for the prediction: its steps, then what it gained.
   EXPECT_NE(r.out.find("refining for the prediction: epoch   1 step 1"), std::string::npos)
       << r.out;

@@ -10,6 +10,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <optional>
 #include <string>
 
 #include "btfgmm/btfgmm.hpp"
@@ -43,7 +44,7 @@ BtfModel model_with_provenance() {
   m.lights = DirectionSet({{0, 0}, {30, 90}});
   m.views = DirectionSet({{0, 0}});
   m.width = m.height = 4;
-  m.origin = {2, 1, 4, 4};
+  m.origin = {.x = 2, .y = 1, .width = 4, .height = 4};
   m.mixture.resize(2);
   m.mixture.weight = {0.5, 0.5};
   for (auto& mu : m.mixture.mean) mu.fill(0.5);
@@ -161,7 +162,8 @@ TEST(Provenance, OlderFilesReadWithNoneRecorded) {
   EXPECT_FALSE(load_model(data / "golden_v1.btfgmm").provenance.recorded);
   const auto gm = load_representation(data / "golden_v2_gm.btfgmm");
   EXPECT_FALSE(gm->provenance().recorded);
-  const Query q[] = {{1.5, 2.25, {30, 90}, {45, 72}}, {0, 0, {0, 0}, {0, 0}}};
+  const Query q[] = {{.x = 1.5, .y = 2.25, .light = {30, 90}, .view = {45, 72}},
+                     {.x = 0, .y = 0, .light = {0, 0}, .view = {0, 0}}};
   // As `btfgmm eval` of the btfgmm that wrote it printed them.
   const float want[6] = {144.5882f, 80.7728f, 58.2584f, 143.0921f, 83.0417f, 63.0924f};
   float rgb[6];
@@ -250,7 +252,7 @@ class ProvenanceFit : public ::testing::Test {
   FitRequest request(int iterations, const std::string& out) const {
     FitRequest r;
     r.input = (data_ / "btf").string();
-    r.tile = {1, 2, 6, 5};
+    r.tile = {.x = 1, .y = 2, .width = 6, .height = 5};
     r.config.components = 8;
     r.config.seed = 4;
     r.config.em.max_iterations = iterations;
@@ -268,7 +270,7 @@ TEST_F(ProvenanceFit, AFitRecordsItsDataAndItsLog) {
   ASSERT_TRUE(p.recorded);
   EXPECT_EQ(p.data.source.name, (data_ / "btf").string());
   EXPECT_EQ(p.data.source.image_width, 8);
-  const Btf tile = BtfSource::open(data_ / "btf").load({1, 2, 6, 5});
+  const Btf tile = BtfSource::open(data_ / "btf").load({.x = 1, .y = 2, .width = 6, .height = 5});
   EXPECT_EQ(p.data.content_hash, tile_content_hash(tile));
   EXPECT_EQ(p.fit.runs, 1u);
   ASSERT_EQ(p.fit.iterations.size(), 3u);
@@ -361,6 +363,48 @@ TEST_F(ProvenanceFit, AFitForThePredictionRecordsItsRefinement) {
       continue_request(r.output, "", 5, (dir_ / "on.btfgmm").string()).config.refinement_steps, 17);
   // EM alone records no refinement.
   EXPECT_FALSE(run_fit(request(3, "em.btfgmm")).refinement);
+}
+
+// Before EM a fit states its plan: the iterations left (those of the run it resumes aside),
+// one iteration's time, timed on a few lights, and the refinement's bound (none for EM
+// alone). Asking for the plan does not change the model.
+TEST_F(ProvenanceFit, AFitStatesItsPlanBeforeEm) {
+  FitRequest r = request(6, "planned.btfgmm");
+  r.config.objective = FitObjective::kPrediction;
+  r.config.refinement_seconds = 12.5;
+  std::optional<FitPlan> plan;
+  bool planned_before_em = false;
+  FitObserver o;
+  o.planned = [&](const FitPlan& p) { plan = p; };
+  o.iteration = [&](const EmProgress& p) {
+    if (p.iteration == 1) planned_before_em = plan.has_value();
+  };
+  run_fit(r, o);
+  ASSERT_TRUE(plan);
+  EXPECT_TRUE(planned_before_em);
+  EXPECT_EQ(plan->components, 8u);
+  EXPECT_EQ(plan->iterations, 6);
+  EXPECT_GT(plan->em_iteration_seconds, 0.0);
+  EXPECT_LT(plan->em_iteration_seconds, 30.0);  // 8 components on 6 x 5 pixels
+  EXPECT_EQ(plan->refinement_seconds, 12.5);
+
+  std::atomic<bool> stop{false};
+  FitRequest first = request(6, "em.btfgmm");
+  first.config.em.stop = &stop;
+  first.checkpoint = (dir_ / "em.ckpt").string();
+  FitObserver stopper;
+  stopper.iteration = [&](const EmProgress& p) { stop = p.iteration >= 2; };
+  ASSERT_TRUE(run_fit(first, stopper).interrupted);
+  FitRequest rest = resume_request(dir_ / "em.ckpt");
+  plan.reset();
+  run_fit(rest, o);
+  ASSERT_TRUE(plan);
+  EXPECT_EQ(plan->iterations, 4);
+  EXPECT_EQ(plan->refinement_seconds, 0.0);  // EM alone
+
+  run_fit(request(6, "unplanned.btfgmm"));
+  EXPECT_EQ(mixture_payload(load_model(dir_ / "em.btfgmm")),
+            mixture_payload(load_model(dir_ / "unplanned.btfgmm")));
 }
 
 // An interrupted fit resumed with more iterations ends where one fit of that many does: the

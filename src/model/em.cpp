@@ -30,6 +30,7 @@
 #include <cstdint>
 #include <exception>
 #include <limits>
+#include <optional>
 #include <span>
 
 #include "btfgmm/core/communicator.hpp"
@@ -517,6 +518,74 @@ EmResult fit_em(const SampleSet& s, ProductMixture& mix, const EmConfig& config,
           ? log_likelihood_of(s, mix, order, detail::tile_periods(s, config.tile_wraps), threads)
           : std::numeric_limits<double>::quiet_NaN();
   return result;
+}
+
+namespace {
+
+// The first `count` lights of those `s` holds, as a sample set of their own (the timing probe
+// of estimate_em_iteration_seconds).
+SampleSet first_lights(const SampleSet& s, std::size_t count) {
+  SampleSet p;
+  p.width = s.width;
+  p.height = s.height;
+  p.lights = s.lights;
+  p.views = s.views;
+  p.first_light = s.first_light;
+  p.held = count;
+  p.scaling = s.scaling;
+  p.mean_brdf = s.mean_brdf;
+  p.inv_colour_unit = s.inv_colour_unit;
+  p.light_ab = s.light_ab;
+  p.view_ab = s.view_ab;
+  const auto copy = [&](const auto& from, auto& to) {
+    if (from.empty()) return;
+    const std::size_t block = count * s.views * 3, stride = s.held_lights() * s.views * 3;
+    to.reserve(block * s.pixels());
+    for (std::size_t px = 0; px < s.pixels(); ++px)
+      to.insert(to.end(), from.begin() + std::ptrdiff_t(px * stride),
+                from.begin() + std::ptrdiff_t(px * stride + block));
+  };
+  copy(s.levels, p.levels);
+  copy(s.residual, p.residual);
+  return p;
+}
+
+}  // namespace
+
+double estimate_em_iteration_seconds(const SampleSet& s, std::size_t components, int threads) {
+  const std::size_t held = s.held_lights();
+  const std::size_t probe = std::clamp<std::size_t>((held + 31) / 32, 1, held);
+  const SampleSet p = first_lights(s, probe);
+  // M equal components over the whole set: none is negligible, none is skipped.
+  ProductMixture mix;
+  mix.resize(components);
+  for (std::size_t m = 0; m < components; ++m) {
+    mix.weight[m] = 1.0 / double(components);
+    mix.mean[m].fill(0.0);
+    mix.var[m].fill(1.0);
+  }
+  const int n = resolve_threads(threads);
+  const Periods periods = detail::tile_periods(p, true);
+  auto at = Clock::now();
+  const Tables t = detail::make_tables(p, mix, periods, n);
+  const double tables = seconds_from(at);
+  // The E pass of the probe's lights, run until 3 runs or 0.2 s: the least of its times (the
+  // first run starts the threads; a loaded machine slows some runs).
+  std::optional<Combined> c;
+  double per_light = std::numeric_limits<double>::infinity(), spent = 0.0;
+  for (int run = 0; run < 3 && (run == 0 || spent < 0.2); ++run) {
+    at = Clock::now();
+    c.emplace(combine(p, mix.size(), true,
+                      e_pass(p, t, mix, detail::view_order(p), periods, n, true), n));
+    const double seconds = seconds_from(at);
+    spent += seconds;
+    per_light = std::min(per_light, seconds / double(probe));
+  }
+  at = Clock::now();
+  const EmConfig defaults;
+  detail::m_step(mix, c->ss, double(s.size()), defaults.variance_floor,
+                 defaults.min_component_samples, periods);
+  return tables + per_light * double(held) + seconds_from(at);
 }
 
 double mean_log_likelihood(const SampleSet& s, const ProductMixture& mix, int threads,

@@ -58,7 +58,8 @@ BtfModel model_of(const FitTile& tile, const SampleSet& samples, const FitConfig
 
 // The frame of a tile in memory.
 FitTile tile_of(const Btf& btf) {
-  return {btf.lights(), btf.views(), btf.origin(), btf.format()};
+  return {
+      .lights = btf.lights(), .views = btf.views(), .origin = btf.origin(), .format = btf.format()};
 }
 
 // The request's tile as a sample set (read_sample_set), its frame, and the data's
@@ -77,7 +78,7 @@ LoadedTile load_tile(const FitRequest& r) {
   t.data.source = {r.input, info.width, info.height};
   t.samples = read_sample_set(*src, r.tile, &t.data.content_hash, r.processes);
   const Tile origin = r.tile.or_whole(info.width, info.height);
-  t.tile = {info.lights, info.views, origin, info.format};
+  t.tile = {.lights = info.lights, .views = info.views, .origin = origin, .format = info.format};
   return t;
 }
 
@@ -264,8 +265,7 @@ BtfModel fit_samples(const SampleSet& samples, const FitTile& tile, const FitCon
   if (config.objective == FitObjective::kPrediction) {
     GradientConfig gradient;
     gradient.steps = config.refinement_steps;
-    gradient.seconds = config.refinement_seconds > 0 ? config.refinement_seconds
-                                                     : default_refine_seconds(config.components);
+    gradient.seconds = refinement_bound(config);
     gradient.seed = config.seed;
     gradient.progress = refinement;
     gradient.stop = config.em.stop;
@@ -388,6 +388,29 @@ FitRequest continue_request(const fs::path& path, const std::string& input, int 
   return r;
 }
 
+double refinement_bound(const FitConfig& config) {
+  if (config.objective != FitObjective::kPrediction) return 0.0;
+  return config.refinement_seconds > 0 ? config.refinement_seconds
+                                       : default_refine_seconds(config.components);
+}
+
+namespace {
+
+// The fit's plan on its samples: EM's iterations left, one timed on a few lights, and the
+// refinement's bound.
+FitPlan plan_fit(const SampleSet& samples, const FitRequest& request) {
+  const FitConfig& config = request.config;
+  check_supported_components(config, samples.size());
+  const int done = request.resume ? request.resume->checkpoint.state.result.iterations : 0;
+  return {.components = config.components,
+          .iterations = std::max(0, config.em.max_iterations - done),
+          .em_iteration_seconds =
+              estimate_em_iteration_seconds(samples, config.components, config.em.threads),
+          .refinement_seconds = refinement_bound(config)};
+}
+
+}  // namespace
+
 FitOutcome fit_in_memory(const FitRequest& request, const FitObserver& observer) {
   const LoadedTile loaded = load_tile(request);
   const auto t0 = Clock::now();
@@ -400,6 +423,7 @@ FitOutcome fit_in_memory(const FitRequest& request, const FitObserver& observer)
     job.runs = request.resume->checkpoint.runs + 1;
   }
   if (observer.started) observer.started(tile);
+  if (observer.planned) observer.planned(plan_fit(loaded.samples, request));
   FitState state;
   std::optional<PredictionRefinement> refined;
   BtfModel model =

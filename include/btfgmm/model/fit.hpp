@@ -116,10 +116,25 @@ struct FitTile {
   }
 };
 
+// What a fit will take, stated before EM: its iterations left, each timed on a few lights
+// (estimate_em_iteration_seconds), and the refinement's bound on its time.
+struct FitPlan {
+  std::size_t components = 0;
+  int iterations = 0;                 // EM iterations at most, those a resume has run aside
+  double em_iteration_seconds = 0.0;  // about; EM's later iterations tend to take less
+  double refinement_seconds = 0.0;    // at most (0: no refinement, the likelihood objective)
+};
+
+// The refinement's bound on its time: config.refinement_seconds, or by default
+// default_refine_seconds(components); 0 with the objective kLikelihood (no refinement).
+double refinement_bound(const FitConfig& config);
+
 // What run_fit tells as it goes (the library prints nothing).
 struct FitObserver {
   // The tile is in memory (for a resume: the very data of the checkpoint); EM starts next.
   std::function<void(const FitTile& tile)> started;
+  // Then, where given, what the fit will take (its EM iteration timed on a few lights first).
+  std::function<void(const FitPlan& plan)> planned;
   EmCallback iteration;  // after every EM iteration, as fit_em's progress
   // The fit for the prediction: after every gradient step (refine_for_prediction).
   GradientCallback refinement;
