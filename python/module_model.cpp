@@ -43,8 +43,10 @@ std::vector<Query> queries_of(
       throw Error(
           Error::Kind::kArgument,
           fmt::format("eval: query {}: x and y must be finite, not {:g}, {:g}", i, r[0], r[1]));
-    q[std::size_t(i)] = {r[0], r[1], direction(r[2], r[3], fmt::format("eval: query {}: light", i)),
-                         direction(r[4], r[5], fmt::format("eval: query {}: view", i))};
+    q[std::size_t(i)] = {.x = r[0],
+                         .y = r[1],
+                         .light = direction(r[2], r[3], fmt::format("eval: query {}: light", i)),
+                         .view = direction(r[4], r[5], fmt::format("eval: query {}: view", i))};
   }
   return q;
 }

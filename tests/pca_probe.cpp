@@ -36,7 +36,7 @@ struct Matrix {
 // A matrix of low rank plus noise, with an offset per column.
 Matrix test_matrix(std::size_t rows, std::size_t cols, std::uint64_t seed) {
   btfgmm::detail::SplitMix64 rng(seed);
-  Matrix m{std::vector<float>(rows * cols), rows, cols};
+  Matrix m{.values = std::vector<float>(rows * cols), .rows = rows, .cols = cols};
   std::vector<double> u(rows * 6), v(6 * cols);
   for (double& x : u) x = rng.uniform(-1.0, 1.0);
   for (double& x : v) x = rng.uniform(-1.0, 1.0);

@@ -704,7 +704,7 @@ std::vector<std::uint8_t> patched_model(std::size_t offset, const void* value, s
   m.lights = btfgmm::DirectionSet({{0, 0}, {30, 90}});
   m.views = btfgmm::DirectionSet({{0, 0}});
   m.width = m.height = 4;
-  m.origin = {0, 0, 4, 4};
+  m.origin = {.x = 0, .y = 0, .width = 4, .height = 4};
   m.mixture.resize(1);
   m.mixture.weight[0] = 1.0;
   m.mixture.mean[0].fill(0.5);

@@ -58,7 +58,7 @@ TEST(ReportCli, ShowsTheModelsOfATileSideBySide) {
   ASSERT_NE(html.find("The models side by side"), std::string::npos);
 
   // compare's per-image PSNR of each model, from the library on the same tile.
-  const Btf tile = BtfSource::open(d + "/btf").load({0, 0, 12, 12});
+  const Btf tile = BtfSource::open(d + "/btf").load({.x = 0, .y = 0, .width = 12, .height = 12});
   std::vector<ModelComparison> cs;
   for (const char* m : {"a", "b", "c"}) {
     const std::string path = d + "/" + m + ".btfgmm";

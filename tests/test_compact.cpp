@@ -150,7 +150,7 @@ TEST(Compact, FileOfThePapersSettingIsWithinThePapersCount) {
   m.lights = DirectionSet::ubo81();
   m.views = DirectionSet::ubo81();
   m.width = m.height = 25;
-  m.origin = {0, 0, 25, 25};
+  m.origin = {.x = 0, .y = 0, .width = 25, .height = 25};
   m.scaling.unit = {1, 1, 0.25, 0.25, 0.25, 0.25, 1, 1, 1};
   m.precision = Precision::kCompact;
   m.mean_brdf.resize(81 * 81 * 3);
@@ -218,7 +218,8 @@ std::vector<std::uint8_t> golden_bytes(const char* name) {
 
 // A golden compact file's model predicts what it predicted when it was committed.
 void expect_predictions(const BtfModel& m, const float (&expected)[2][3]) {
-  const Query q[] = {{1, 2, {40, 60}, {40, 120}}, {2.5, 0.25, {25, 75}, {10, 200}}};
+  const Query q[] = {{.x = 1, .y = 2, .light = {40, 60}, .view = {40, 120}},
+                     {.x = 2.5, .y = 0.25, .light = {25, 75}, .view = {10, 200}}};
   for (int i = 0; i < 2; ++i) {
     const auto rgb = predict(m, q[i]);
     for (int c = 0; c < 3; ++c) EXPECT_NEAR(rgb[c], expected[i][c], 1e-3) << i << " " << c;

@@ -217,7 +217,8 @@ void check_golden(const std::string& prefix, std::uint32_t version, FactorEncodi
     const std::vector<std::uint8_t> payload = model->payload();
     EXPECT_TRUE(
         std::equal(payload.begin(), payload.end(), file.payload.begin(), file.payload.end()));
-    const Query queries[] = {{1, 2, {40, 60}, {40, 120}}, {2.5, 0.25, {25, 75}, {10, 200}}};
+    const Query queries[] = {{.x = 1, .y = 2, .light = {40, 60}, .view = {40, 120}},
+                             {.x = 2.5, .y = 0.25, .light = {25, 75}, .view = {10, 200}}};
     float rgb[6];
     model->predict(queries, rgb);
     for (int c = 0; c < 3; ++c) {

@@ -57,10 +57,11 @@ TEST_F(FitOptionsTest, MixtureFittedInMemoryIsTheModelRunFitWrites) {
   o.seed = 2;
   o.threads = 1;
   FitRequest r = mixture_fit_request(o, p("btf"), p("m.btfgmm"));
-  r.tile = {1, 0, 6, 5};
+  r.tile = {.x = 1, .y = 0, .width = 6, .height = 5};
   run_fit(r);
   const auto written = load_representation(p("m.btfgmm"));
-  const auto in_memory = fit_representation(o, p("btf"), nullptr, {1, 0, 6, 5});
+  const auto in_memory =
+      fit_representation(o, p("btf"), nullptr, {.x = 1, .y = 0, .width = 6, .height = 5});
   ASSERT_EQ(in_memory->method(), "gm");
   expect_same_but_times(*written, *in_memory);
   EXPECT_EQ(written->provenance().fit.iterations.size(), 3u);
@@ -72,8 +73,9 @@ TEST_F(FitOptionsTest, AnotherMethodRecordsWhatTheCommandRecords) {
   o.method = "pca-btf";
   o.components = 3;
   const auto a = fit_representation(o, p("btf"), nullptr, {});
-  const auto b = fit_representation(
-      o, p("btf"), std::make_shared<const BtfSource>(BtfSource::open(p("btf"))), {0, 0, 8, 8});
+  const auto b =
+      fit_representation(o, p("btf"), std::make_shared<const BtfSource>(BtfSource::open(p("btf"))),
+                         {.x = 0, .y = 0, .width = 8, .height = 8});
   expect_same_but_times(*a, *b);
   EXPECT_EQ(a->frame().width, 8);
   const auto& s = a->provenance().fit.settings;

@@ -492,7 +492,7 @@ TEST(Image, RowsKeepOnlyTheTile) {
   for (std::size_t i = 0; i < rgb.size(); ++i) rgb[i] = float(mix(i) % 256);
   btfgmm::write_png(dir / "a.png", w, h, rgb);
   btfgmm::write_exr(dir / "a.exr", w, h, rgb);
-  const Tile t{3, 2, 5, 4};
+  const Tile t{.x = 3, .y = 2, .width = 5, .height = 4};
   for (const char* name : {"a.png", "a.exr"}) {
     const auto img = btfgmm::read_image(dir / name, t);
     ASSERT_EQ(img.width, t.width) << name;
@@ -503,10 +503,10 @@ TEST(Image, RowsKeepOnlyTheTile) {
           EXPECT_EQ(img.rgb[std::size_t((y * t.width + x) * 3 + c)],
                     rgb[std::size_t(((y + t.y) * w + x + t.x) * 3 + c)])
               << name;
-    EXPECT_ERROR(btfgmm::read_image(dir / name, Tile{8, 0, 4, 4}), Error::Kind::kArgument,
-                 (dir / name).string(), "11x9");
-    EXPECT_ERROR(btfgmm::read_image(dir / name, Tile{0, -1, 4, 4}), Error::Kind::kArgument,
-                 (dir / name).string(), "11x9");
+    EXPECT_ERROR(btfgmm::read_image(dir / name, Tile{.x = 8, .y = 0, .width = 4, .height = 4}),
+                 Error::Kind::kArgument, (dir / name).string(), "11x9");
+    EXPECT_ERROR(btfgmm::read_image(dir / name, Tile{.x = 0, .y = -1, .width = 4, .height = 4}),
+                 Error::Kind::kArgument, (dir / name).string(), "11x9");
   }
 }
 
@@ -597,7 +597,8 @@ TEST(Image, ExrNonFiniteIsAnError) {
   EXPECT_ERROR(btfgmm::read_image(dir / "nan.exr"), Error::Kind::kFormat,
                (dir / "nan.exr").string(), "x=3 y=2", "channel G", "non-finite");
   // A tile that misses the bad pixel reads fine.
-  EXPECT_NO_THROW(btfgmm::read_image(dir / "nan.exr", Tile{0, 0, 2, 4}));
+  EXPECT_NO_THROW(
+      btfgmm::read_image(dir / "nan.exr", Tile{.x = 0, .y = 0, .width = 2, .height = 4}));
   rgb[std::size_t((2 * w + 3) * 3 + 1)] = 0.5f;
   rgb[0] = -std::numeric_limits<float>::infinity();
   btfgmm::write_exr(dir / "inf.exr", w, h, rgb);
@@ -617,7 +618,7 @@ TEST(Image, FileErrorsNameThePath) {
   EXPECT_ERROR(btfgmm::write_exr(dir / "nofolder/a.exr", 2, 2, rgb), Error::Kind::kIo, "nofolder",
                "does not exist");
   EXPECT_ERROR(btfgmm::write_png(dir / "a.png", 3, 2, rgb), Error::Kind::kArgument, "a.png");
-  btfgmm::Image img{2, 2, SampleFormat::kLdr8, rgb};
+  btfgmm::Image img{.width = 2, .height = 2, .format = SampleFormat::kLdr8, .rgb = rgb};
   EXPECT_ERROR(btfgmm::write_image(dir / "a.tif", img), Error::Kind::kArgument, "a.tif", ".png",
                ".jpg", ".exr");
   btfgmm::write_image(dir / "b.exr", img);
@@ -744,7 +745,7 @@ TEST(Dataset, BonnFolderAndZipReadTheSameValues) {
   EXPECT_TRUE(zip.info().views == b.views());
   EXPECT_EQ(zip.image_name(0, 0), "material/tv000_pv000/00000 tl000 pl000 tv000 pv000.png");
   expect_same(zip.load(), b);
-  const Tile t{1, 2, 5, 3};
+  const Tile t{.x = 1, .y = 2, .width = 5, .height = 3};
   expect_same(zip.load(t), folder.load(t));
 }
 
@@ -799,7 +800,7 @@ TEST(Dataset, TileIsTheSubRectangleOfTheFullLoad) {
     btfgmm::write_utia(make_btf(f, 12, 10), dir.path());
     const auto src = BtfSource::open(dir.path());
     const Btf full = src.load();
-    const Tile t{3, 4, 6, 5};
+    const Tile t{.x = 3, .y = 4, .width = 6, .height = 5};
     const Btf tile = src.load(t);
     ASSERT_EQ(tile.width(), 6);
     ASSERT_EQ(tile.height(), 5);
@@ -965,14 +966,17 @@ TEST(Dataset, ExrWithNaN) {
                (dir / "tv030_pv180/tl045_pl000_tv030_pv180.exr").string(), "x=3 y=4", "channel G",
                "replace non-finite values");
   // A tile without the bad pixel loads.
-  EXPECT_NO_THROW(src.load(Tile{4, 0, 4, 6}));
+  EXPECT_NO_THROW(src.load(Tile{.x = 4, .y = 0, .width = 4, .height = 6}));
 }
 
 TEST(Dataset, TileOutsideTheImage) {
   TempDir dir;
   btfgmm::write_utia(make_btf(SampleFormat::kLdr8, 12, 10), dir.path());
   const auto src = BtfSource::open(dir.path());
-  for (const Tile t : {Tile{10, 0, 5, 5}, Tile{-1, 0, 5, 5}, Tile{0, 6, 5, 5}, Tile{0, 0, 13, 1}})
+  for (const Tile t : {Tile{.x = 10, .y = 0, .width = 5, .height = 5},
+                       Tile{.x = -1, .y = 0, .width = 5, .height = 5},
+                       Tile{.x = 0, .y = 6, .width = 5, .height = 5},
+                       Tile{.x = 0, .y = 0, .width = 13, .height = 1}})
     EXPECT_ERROR(src.load(t), Error::Kind::kArgument, dir.path().string(), "12x10");
 }
 

@@ -34,7 +34,8 @@ TEST(Methods, TheMixtureBehindTheInterfaceIsTheMixture) {
   EXPECT_EQ(gm.frame().width, m.width);
   EXPECT_EQ(gm.paper_ratio(), m.compression_ratio_paper());
   EXPECT_EQ(gm.parameter_count(), m.mixture.size() * 18 + m.mean_brdf.size());
-  const Query q[] = {{1.5, 2.25, {40, 90}, {0, 0}}, {3.9, 3.9, {80, 300}, {20, 10}}};
+  const Query q[] = {{.x = 1.5, .y = 2.25, .light = {40, 90}, .view = {0, 0}},
+                     {.x = 3.9, .y = 3.9, .light = {80, 300}, .view = {20, 10}}};
   float rgb[6];
   gm.predict(q, rgb);
   for (int i = 0; i < 2; ++i) {
@@ -109,26 +110,26 @@ TEST(Methods, VersionTwoFilesOfEveryMethodStillRead) {
     float measured[3], between[3];
   };
   const Golden golden[] = {
-      {"pca-btf",
-       200,
-       {132.517059f, 123.083794f, 107.801353f},
-       {130.583527f, 121.018936f, 105.997276f}},
-      {"pca-rf",
-       632,
-       {120.677750f, 111.981506f, 97.941696f},
-       {123.412422f, 114.467224f, 100.102104f}},
-      {"lpca",
-       552,
-       {137.156021f, 127.572594f, 111.883621f},
-       {128.965805f, 119.649498f, 104.816185f}},
-      {"ptm-rf",
-       1152,
-       {115.656845f, 107.492050f, 93.834244f},
-       {131.490921f, 122.026833f, 106.925919f}},
-      {"plm-rf",
-       1212,
-       {117.798912f, 109.438629f, 95.529449f},
-       {133.204529f, 123.613876f, 108.310684f}},
+      {.method = "pca-btf",
+       .parameters = 200,
+       .measured = {132.517059f, 123.083794f, 107.801353f},
+       .between = {130.583527f, 121.018936f, 105.997276f}},
+      {.method = "pca-rf",
+       .parameters = 632,
+       .measured = {120.677750f, 111.981506f, 97.941696f},
+       .between = {123.412422f, 114.467224f, 100.102104f}},
+      {.method = "lpca",
+       .parameters = 552,
+       .measured = {137.156021f, 127.572594f, 111.883621f},
+       .between = {128.965805f, 119.649498f, 104.816185f}},
+      {.method = "ptm-rf",
+       .parameters = 1152,
+       .measured = {115.656845f, 107.492050f, 93.834244f},
+       .between = {131.490921f, 122.026833f, 106.925919f}},
+      {.method = "plm-rf",
+       .parameters = 1212,
+       .measured = {117.798912f, 109.438629f, 95.529449f},
+       .between = {133.204529f, 123.613876f, 108.310684f}},
   };
   for (const Golden& g : golden) {
     SCOPED_TRACE(g.method);
@@ -149,7 +150,8 @@ TEST(Methods, VersionTwoFilesOfEveryMethodStillRead) {
     const std::vector<std::uint8_t> payload = model->payload();
     EXPECT_TRUE(
         std::equal(payload.begin(), payload.end(), file.payload.begin(), file.payload.end()));
-    const Query queries[] = {{1, 2, {40, 60}, {40, 120}}, {2.5, 0.25, {25, 75}, {10, 200}}};
+    const Query queries[] = {{.x = 1, .y = 2, .light = {40, 60}, .view = {40, 120}},
+                             {.x = 2.5, .y = 0.25, .light = {25, 75}, .view = {10, 200}}};
     float rgb[6];
     model->predict(queries, rgb);
     for (int c = 0; c < 3; ++c) {
@@ -226,12 +228,12 @@ TEST(MeasuredImages, MeasuredPairsAndPixelCentresAreTheStoredValues) {
   const StoredImages s(b);
   const Btf d = s.decode(b.lights(), b.views(), 5, 4, 0.0);
   EXPECT_EQ(std::memcmp(d.data().data(), b.data().data(), b.data().size() * 4), 0);
-  const Query q{3.0, 2.0, b.lights()[4], b.views()[2]};
+  const Query q{.x = 3.0, .y = 2.0, .light = b.lights()[4], .view = b.views()[2]};
   float rgb[3];
   s.predict(std::span(&q, 1), rgb);
   for (int c = 0; c < 3; ++c) EXPECT_FLOAT_EQ(rgb[c], b.at(4, 2, 3, 2, c));
   // Between pixel centres: bilinear; past the edge the tile wraps to column 0.
-  const Query mid{4.5, 2.0, b.lights()[4], b.views()[2]};
+  const Query mid{.x = 4.5, .y = 2.0, .light = b.lights()[4], .view = b.views()[2]};
   s.predict(std::span(&mid, 1), rgb);
   for (int c = 0; c < 3; ++c)
     EXPECT_NEAR(rgb[c], 0.5f * (b.at(4, 2, 4, 2, c) + b.at(4, 2, 0, 2, c)), 1e-3f);
@@ -258,7 +260,7 @@ TEST(MeasuredImages, UnmeasuredDirectionsAreConvexBlendsOfTheirNeighbours) {
         EXPECT_EQ(got, d.at(0, 0, x % 5, y % 4, c));
       }
   // predict at a pixel centre agrees with decode at the same directions.
-  const Query q{2.0, 1.0, light[0], view[0]};
+  const Query q{.x = 2.0, .y = 1.0, .light = light[0], .view = view[0]};
   float rgb[3];
   s.predict(std::span(&q, 1), rgb);
   for (int c = 0; c < 3; ++c) EXPECT_NEAR(rgb[c], d.at(0, 0, 2, 1, c), 1e-3f);

@@ -498,7 +498,7 @@ TEST(CompareCli, TableJsonAndReportOfTheModelsTile) {
   EXPECT_EQ(j["file_bytes"], fs::file_size(d + "/a.btfgmm"));
   // The same numbers from the library on the same tile.
   const BtfModel m = load_model(d + "/a.btfgmm");
-  const Btf tile = BtfSource::open(d + "/btf").load({3, 2, 12, 11});
+  const Btf tile = BtfSource::open(d + "/btf").load({.x = 3, .y = 2, .width = 12, .height = 11});
   const BtfQuality q = measure_quality(tile, decode(m, m.lights, m.views, 12, 11));
   EXPECT_NEAR(j["rmse"].get<double>(), q.rmse, 1e-9);
   EXPECT_NEAR(j["ssim"].get<double>(), q.ssim, 1e-9);

@@ -349,7 +349,7 @@ BtfModel two_component_model() {
   m.views = DirectionSet::parse("rings:0/1,40/4");
   m.width = 4;
   m.height = 4;
-  m.origin = {0, 0, 4, 4};
+  m.origin = {.x = 0, .y = 0, .width = 4, .height = 4};
   m.scaling.unit = {1, 1, 0.5, 0.5, 0.5, 0.5, 1, 1, 1};
   m.mean_brdf.resize(5 * 5 * 3);
   for (std::size_t i = 0; i < m.mean_brdf.size(); ++i) m.mean_brdf[i] = float(10 + i % 17);
@@ -391,7 +391,7 @@ TEST(Predict, EqualsHandComputedTwoComponentModel) {
   const BtfModel m = two_component_model();
   // A measured pair: light 2 = (40, 90), view 0 = (0, 0); the mean BRDF is stored.
   {
-    const auto got = predict(m, Query{1.5, 2.25, {40, 90}, {0, 0}});
+    const auto got = predict(m, Query{.x = 1.5, .y = 2.25, .light = {40, 90}, .view = {0, 0}});
     const float* mb = &m.mean_brdf[(2 * 5 + 0) * 3];
     const auto want = by_hand(m, 1.5, 2.25, {40, 90}, {0, 0}, {mb[0], mb[1], mb[2]});
     for (int c = 0; c < 3; ++c) EXPECT_NEAR(got[c], want[c], 1e-4);
@@ -399,7 +399,7 @@ TEST(Predict, EqualsHandComputedTwoComponentModel) {
   // Unmeasured: light (40, 45) is halfway between lights 1 (40, 0) and 2 (40, 90) on the
   // ring, so its mean BRDF is their average. x wraps: 5.5 is 1.5 of the 4-pixel tile.
   {
-    const auto got = predict(m, Query{5.5, -1.0, {40, 45}, {40, 180}});
+    const auto got = predict(m, Query{.x = 5.5, .y = -1.0, .light = {40, 45}, .view = {40, 180}});
     const float* a = &m.mean_brdf[(1 * 5 + 3) * 3];
     const float* b = &m.mean_brdf[(2 * 5 + 3) * 3];
     const auto want = by_hand(m, 1.5, 3.0, {40, 45}, {40, 180},
@@ -521,10 +521,10 @@ TEST(ModelFile, GoldenVersion1FileKeepsDecoding) {
   EXPECT_EQ(v3[8], kModelFormatVersion);
   EXPECT_EQ(serialize_model(deserialize_model(v3, "v3")), v3);
   EXPECT_EQ(std::vector<std::uint8_t>(v3.begin() + 34, v3.end() - 4), v1_payload);
-  const Query queries[] = {{1.5, 2.25, {40, 90}, {0, 0}},
-                           {5.5, -1.0, {40, 45}, {40, 180}},
-                           {0, 0, {0, 0}, {0, 0}},
-                           {3.9, 3.9, {80, 300}, {20, 10}}};
+  const Query queries[] = {{.x = 1.5, .y = 2.25, .light = {40, 90}, .view = {0, 0}},
+                           {.x = 5.5, .y = -1.0, .light = {40, 45}, .view = {40, 180}},
+                           {.x = 0, .y = 0, .light = {0, 0}, .view = {0, 0}},
+                           {.x = 3.9, .y = 3.9, .light = {80, 300}, .view = {20, 10}}};
   // The predictions of the spatial Gaussians wrapped around the 4 x 4 tile (the file is read
   // as it was written; the model it holds is now evaluated wrapped). Unwrapped, queries 1-3
   // gave {20.8143978, 14.6856012, 20.2015991}, {9.66214371, 13.8378563, 13.6291275} and

@@ -332,7 +332,7 @@ TEST(PcaMethods, PredictMatchesDecodeAndBlendsBetweenDirections) {
     // An unmeasured light at a measured view: the barycentric blend of three measured lights.
     const Direction light{17.0, 50.0};
     const auto w = DirectionInterpolator(tile.lights()).weights(light);
-    const Query between{5.0, 3.0, light, tile.views()[2]};
+    const Query between{.x = 5.0, .y = 3.0, .light = light, .view = tile.views()[2]};
     float got[3];
     r->predict(std::span(&between, 1), got);
     for (int c = 0; c < 3; ++c) {

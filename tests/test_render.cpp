@@ -315,8 +315,10 @@ TEST(Render, ModelKernelEqualsPredict) {
     p.light = {float(lv.x), float(lv.y), float(lv.z)};
     p.view = {float(vv.x), float(vv.y), float(vv.z)};
     // The query predict() gets: exactly the directions the kernel gets (float vectors).
-    queries[i] = {p.x, p.y, to_direction({p.light[0], p.light[1], p.light[2]}),
-                  to_direction({p.view[0], p.view[1], p.view[2]})};
+    queries[i] = {.x = p.x,
+                  .y = p.y,
+                  .light = to_direction({p.light[0], p.light[1], p.light[2]}),
+                  .view = to_direction({p.view[0], p.view[1], p.view[2]})};
   }
   std::vector<float> want(pts.size() * 3);
   predict(m, queries, want);
@@ -359,8 +361,10 @@ TEST(Render, SkippedComponentsStayWithinTheTolerance) {
   std::vector<Query> q(sb.points.size());
   for (std::size_t i = 0; i < q.size(); ++i) {
     const SurfacePoint& p = sb.points[i];
-    q[i] = {p.x, p.y, to_direction({p.light[0], p.light[1], p.light[2]}),
-            to_direction({p.view[0], p.view[1], p.view[2]})};
+    q[i] = {.x = p.x,
+            .y = p.y,
+            .light = to_direction({p.light[0], p.light[1], p.light[2]}),
+            .view = to_direction({p.view[0], p.view[1], p.view[2]})};
   }
   std::vector<float> want(q.size() * 3);
   predict(m, q, want);

@@ -83,7 +83,7 @@ TEST(Resume, CheckpointRejectsTruncationAndCorruption) {
   FitCheckpoint k;
   k.input = "btf";
   k.output = "m.btfgmm";
-  k.tile = {0, 0, 8, 8};
+  k.tile = {.x = 0, .y = 0, .width = 8, .height = 8};
   k.data_fingerprint = btf_fingerprint(btf);
   k.state.mixture = initial_mixture(s, 3, 1);
   k.state.result.iterations = 2;

@@ -53,7 +53,7 @@ fs::path written_btf(const std::string& tag, bool hdr = false) {
 TEST(Scale, SampleSetReadImageByImageHoldsBytesAndEqualsTheLoadedTile) {
   const fs::path dir = written_btf("bytes");
   const BtfSource src = BtfSource::open(dir / "btf");
-  const Tile tile{2, 3, 8, 6};
+  const Tile tile{.x = 2, .y = 3, .width = 8, .height = 6};
   std::uint64_t hash = 0;
   const SampleSet read = read_sample_set(src, tile, &hash);
   const Btf loaded = src.load(tile);

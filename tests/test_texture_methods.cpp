@@ -90,12 +90,12 @@ TEST_P(TextureMethod, AnySizeFromASeedDeterministically) {
   EXPECT_FALSE(std::equal(a.data().begin(), a.data().end(), b.data().begin()));
   // predict reads the synthesis at the tile's size: the same as decoding the tile.
   const Btf tile = m->decode(light, view, 16, 16, 0);
-  const Query q{5, 7, light[0], view[0]};
+  const Query q{.x = 5, .y = 7, .light = light[0], .view = view[0]};
   float rgb[3];
   m->predict({&q, 1}, rgb);
   for (int ch = 0; ch < 3; ++ch) EXPECT_FLOAT_EQ(rgb[ch], tile.at(0, 0, 5, 7, ch));
   // Between pixels, bilinear.
-  const Query half{5.5, 7, light[0], view[0]};
+  const Query half{.x = 5.5, .y = 7, .light = light[0], .view = view[0]};
   m->predict({&half, 1}, rgb);
   for (int ch = 0; ch < 3; ++ch)
     EXPECT_NEAR(rgb[ch], (tile.at(0, 0, 5, 7, ch) + tile.at(0, 0, 6, 7, ch)) / 2, 1e-3);
@@ -317,7 +317,7 @@ TEST(TextureMethods, VersionThreeFilesStillReadAndSynthesiseAlike) {
     EXPECT_EQ(model->parameter_count(), g.parameters);
     const auto again = read_representation(representation_file_bytes(*model), "again");
     EXPECT_EQ(again->payload(), model->payload());
-    const Query q{1, 2, {30, 90}, {40, 180}};
+    const Query q{.x = 1, .y = 2, .light = {30, 90}, .view = {40, 180}};
     float rgb[3];
     model->predict({&q, 1}, rgb);
     for (int c = 0; c < 3; ++c) EXPECT_NEAR(rgb[c], g.rgb[c], 1e-3) << c;
@@ -344,7 +344,7 @@ void expect_golden_files(const char* prefix, const std::vector<Golden>& golden,
     EXPECT_EQ(model->parameter_count(), g.parameters);
     const auto again = read_representation(representation_file_bytes(*model), "again");
     EXPECT_EQ(again->payload(), model->payload());
-    const Query q{1, 2, {30, 90}, {40, 180}};
+    const Query q{.x = 1, .y = 2, .light = {30, 90}, .view = {40, 180}};
     float rgb[3];
     model->predict({&q, 1}, rgb);
     for (int c = 0; c < 3; ++c) EXPECT_NEAR(rgb[c], g.rgb[c], 1e-3) << c;

@@ -43,7 +43,7 @@ TEST(Tile, FindsTheWalePeriodOfCorduroy) {
   std::uniform_int_distribution<int> w(18, 30), pos(0, 64 - 31);
   int worse = 0;
   for (int i = 0; i < 40; ++i) {
-    const Tile t{pos(rng), pos(rng), w(rng), 24};
+    const Tile t{.x = pos(rng), .y = pos(rng), .width = w(rng), .height = 24};
     const SeamError e = seam_error(btf, t, 16);
     EXPECT_GE(e.total, r.seam.total);
     worse += t.width % 8 != 0 && e.total > 2.0 * r.seam.total;
@@ -65,7 +65,8 @@ TEST(Tile, FindsBothPeriodsOfKnit) {
   EXPECT_EQ(r.tile.width, 20);
   EXPECT_EQ(r.tile.height, 20);
   EXPECT_EQ(r.images, 16u);
-  const SeamError off = seam_error(btf, {r.tile.x + 3, r.tile.y, 17, 20}, 16);
+  const SeamError off =
+      seam_error(btf, {.x = r.tile.x + 3, .y = r.tile.y, .width = 17, .height = 20}, 16);
   EXPECT_GT(off.left_right, 3.0 * r.seam.left_right);
 }
 
@@ -93,7 +94,7 @@ TEST(Tile, TheWholeImageIsATileJudgedAcrossItsWrap) {
   // Cut to 35 columns (3.5 stitches), the step across its wrap is a seam, and a 20-pixel tile
   // (two stitches) inside it beats the whole image.
   const Btf cut = first_columns(btf, 35);
-  const SeamError whole = seam_error(cut, {0, 0, 35, 40}, 16);
+  const SeamError whole = seam_error(cut, {.x = 0, .y = 0, .width = 35, .height = 40}, 16);
   EXPECT_GT(whole.left_right, 1.0);
   EXPECT_LT(whole.top_bottom, 0.2);
   c.min_width = 18;
@@ -170,7 +171,7 @@ TEST(Tile, ParsesSizesAndRejectsNonsense) {
   whole.min_width = whole.max_width = 17;  // wider than the image
   whole.min_height = whole.max_height = 8;
   EXPECT_THROW(find_seamless_tile(btf, whole), Error);
-  EXPECT_THROW(seam_error(btf, {10, 0, 8, 8}), Error);  // outside
+  EXPECT_THROW(seam_error(btf, {.x = 10, .y = 0, .width = 8, .height = 8}), Error);  // outside
 }
 
 }  // namespace

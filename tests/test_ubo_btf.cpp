@@ -131,7 +131,7 @@ TEST(UboBtf, DirectionsAreTheFilesInItsOrderAndATileDecodesAlone) {
   EXPECT_NEAR(src.info().lights[3].phi_deg, 270.0, 1e-4);  // -90 degrees, wrapped
   EXPECT_NEAR(src.info().views[3].theta_deg, 70.0, 1e-4);
   const Btf whole = src.load();
-  const Tile t{3, 2, 4, 3};
+  const Tile t{.x = 3, .y = 2, .width = 4, .height = 3};
   const Btf tile = src.load(t);
   for (std::size_t l = 0; l < 5; ++l)
     for (std::size_t v = 0; v < 4; ++v)
@@ -204,9 +204,10 @@ TEST(UboBtf, FactorsThatDisagreeOrAreNotFiniteAreRefused) {
   f = factors();
   f[0].sxv(9, 0) = std::numeric_limits<float>::infinity();  // pixel x=1, y=2
   const UboBtf b = UboBtf::from_bytes(test::write_ubo_btf(s, f), "sxv.btf");
-  EXPECT_NO_THROW(b.load_tile({0, 0, 4, 2}));  // the tile does not hold that pixel
+  EXPECT_NO_THROW(
+      b.load_tile({.x = 0, .y = 0, .width = 4, .height = 2}));  // the tile does not hold that pixel
   EXPECT_NE(test::error_of([&] {
-              b.load_tile({0, 1, 2, 2});
+              b.load_tile({.x = 0, .y = 1, .width = 2, .height = 2});
             }).find("an infinity at pixel x=1 y=2"),
             std::string::npos);
 }

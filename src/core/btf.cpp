@@ -27,7 +27,7 @@ Btf::Btf(DirectionSet lights, DirectionSet views, int width, int height, SampleF
       width_(width),
       height_(height),
       format_(format),
-      origin_{0, 0, width, height} {
+      origin_{.x = 0, .y = 0, .width = width, .height = height} {
   if (lights_.empty() || views_.empty())
     throw Error(Error::Kind::kArgument,
                 fmt::format("a BTF needs at least one light and one view direction (got {} "

@@ -145,7 +145,7 @@ ModelComparison compare_model(const Btf& original, std::shared_ptr<const Represe
   c.model = std::move(model);
   c.file_bytes = file_bytes;
   if (c.model->provenance().recorded) c.fit_seconds = c.model->provenance().fit.seconds;
-  c.tile = {f.origin.x, f.origin.y, f.width, f.height};
+  c.tile = {.x = f.origin.x, .y = f.origin.y, .width = f.width, .height = f.height};
   c.quality = measure_quality(original, decoded, 0.0, options.ssim);
   c.mean_brdf = mean_brdf(original);
   c.mean_brdf_only = measure_quality(original, mean_brdf_alone(original, c.mean_brdf),

@@ -72,7 +72,7 @@ void check_model_frame(const Representation& model, const std::string& name, con
                 fmt::format("{}: the model was fitted to {} data, {} holds {} data; compare a "
                             "model with the BTF it was fitted to",
                             name, to_string(m.format), btf, to_string(info.format)));
-  const Tile tile{m.origin.x, m.origin.y, m.width, m.height};
+  const Tile tile{.x = m.origin.x, .y = m.origin.y, .width = m.width, .height = m.height};
   if (tile.x < 0 || tile.y < 0 || tile.x + tile.width > info.width ||
       tile.y + tile.height > info.height)
     throw Error(

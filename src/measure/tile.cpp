@@ -187,7 +187,8 @@ class SeamSums {
             const SeamError e = judge(w, h, x0, y0);
             ++best.candidates;
             const double score = tile_score(e, w, h);
-            if (score < size_best.score) size_best = {{x0, y0, w, h}, e, score};
+            if (score < size_best.score)
+              size_best = {{.x = x0, .y = y0, .width = w, .height = h}, e, score};
           }
         per_size.push_back(size_best);
       }

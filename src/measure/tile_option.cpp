@@ -22,7 +22,7 @@ Tile parse_tile(const std::string& text, const std::string& option) {
   if (v[2] < 1 || v[3] < 1 || v[0] < 0 || v[1] < 0)
     throw Error(Error::Kind::kArgument,
                 fmt::format("{} '{}': x, y must be >= 0 and width, height >= 1", option, text));
-  return {int(v[0]), int(v[1]), int(v[2]), int(v[3])};
+  return {.x = int(v[0]), .y = int(v[1]), .width = int(v[2]), .height = int(v[3])};
 }
 
 }  // namespace

@@ -233,7 +233,10 @@ const std::vector<float>& TextureModel::synthesised(std::size_t subspace, int wi
   std::lock_guard<std::mutex> lock(cache_lock_);
   if (cache_.width != width || cache_.height != height || cache_.seed != seed_ ||
       cache_.fields.size() != subspaces_.size())
-    cache_ = {width, height, seed_, std::vector<std::vector<float>>(subspaces_.size())};
+    cache_ = {.width = width,
+              .height = height,
+              .seed = seed_,
+              .fields = std::vector<std::vector<float>>(subspaces_.size())};
   std::vector<float>& f = cache_.fields[subspace];
   if (f.empty()) {
     const detail::Field field = subspaces_[subspace]->synthesise(width, height, seed_);

@@ -58,7 +58,7 @@ std::vector<Row> chosen_rows(const ModelComparison& first, const Btf* data) {
     if (std::any_of(rows.begin(), rows.end(),
                     [&](const Row& r) { return r.light == l && r.view == v; }))
       continue;
-    Row r{l, v, label, original_image(first, data, l, v)};
+    Row r{.light = l, .view = v, .label = label, .original = original_image(first, data, l, v)};
     if (!r.original.empty()) rows.push_back(std::move(r));
   }
   return rows;

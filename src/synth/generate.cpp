@@ -139,7 +139,7 @@ Btf generate(const GenerateConfig& config) {
   const int size = config.size;
   Btf btf(config.lights, config.views, size, size,
           config.hdr ? SampleFormat::kHdr : SampleFormat::kLdr8);
-  btf.set_origin({0, 0, size, size});
+  btf.set_origin({.x = 0, .y = 0, .width = size, .height = size});
 
   // Steps 1 and 2: the material on its grid, with normals and accessibility.
   const synth::MaterialModel model = synth::material_model(config.material, size, config.seed);

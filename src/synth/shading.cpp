@@ -97,12 +97,12 @@ PairTerms pair_terms(const Vec3& l, const Vec3& v, const std::array<float, 3>& f
     h = {0.0, 0.0, 1.0};
   const double vdh = std::clamp(dot(v, h), 0.0, 1.0);
   const auto schlick = float(std::pow(1.0 - vdh, 5.0));
-  return {float(h.x),
-          float(h.y),
-          float(h.z),
-          f0[0] + (1.0f - f0[0]) * schlick,
-          f0[1] + (1.0f - f0[1]) * schlick,
-          f0[2] + (1.0f - f0[2]) * schlick};
+  return {.hx = float(h.x),
+          .hy = float(h.y),
+          .hz = float(h.z),
+          .fr = f0[0] + (1.0f - f0[0]) * schlick,
+          .fg = f0[1] + (1.0f - f0[1]) * schlick,
+          .fb = f0[2] + (1.0f - f0[2]) * schlick};
 }
 
 }  // namespace

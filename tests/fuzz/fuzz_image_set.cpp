@@ -35,7 +35,10 @@ void decode_as(std::span<const std::uint8_t> bytes, const std::string& name) {
     if (whole.width != h.width || whole.height != h.height ||
         whole.rgb.size() != std::size_t(h.width) * std::size_t(h.height) * 3)
       __builtin_trap();  // the decoder disagrees with the header
-    const btfgmm::Tile tile{h.width / 3, h.height / 2, (h.width + 1) / 2, (h.height + 1) / 2};
+    const btfgmm::Tile tile{.x = h.width / 3,
+                            .y = h.height / 2,
+                            .width = (h.width + 1) / 2,
+                            .height = (h.height + 1) / 2};
     (void)btfgmm::decode_image(bytes, name, tile);
   } catch (const btfgmm::Error&) {
   }
