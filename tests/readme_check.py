@@ -6,9 +6,10 @@ Usage: readme_check.py README.md BTFGMM_BINARY SOURCE_DIR
 
 The commands run in one empty temporary folder holding a link to the source tree's examples/,
 at small sizes so that the whole README takes seconds: `generate` renders fewer directions,
-a fit takes at most MAX_COMPONENTS components and a sweep (or a fit --budget, which fits
-candidates) two iterations a fit (every other
-option as written). Lines that
+a fit takes at most MAX_COMPONENTS components and a sweep two iterations a fit (every other
+option as written). A fit --budget runs as written, at full size: on the README's data
+generated again as written (every direction), so that the budget's answer is the user's.
+Lines that
 are not commands of the tool (`make ...`) and indented comment lines are skipped. A fit
 whose checkpoint a later command resumes is interrupted with SIGINT, as the README says a
 user's Ctrl-C does, once its first checkpoint is written. Python (a `python3 -c` line, a
@@ -27,7 +28,7 @@ import time
 MAX_COMPONENTS = 100
 PYTHON_BLOCK = "<python>"
 PYTHON_LINES = ("python3 -c ", "/usr/bin/python3 -c ")  # a one-line program, run as a block
-SWEEP_ITERATIONS = ["--iterations", "2"]  # every fit of a sweep or a fit --budget, unless set
+SWEEP_ITERATIONS = ["--iterations", "2"]  # every fit of a sweep, unless set
 SMALL_GENERATE = ["--lights", "spiral:9", "--views", "spiral:4", "--supersample", "1"]
 
 
@@ -86,11 +87,29 @@ def smaller(words):
         {"-M", "--components", "--resume", "--continue", "--budget", "--ratio"} & set(out))
     if mixture_fit:
         out += ["--components", str(MAX_COMPONENTS)]
-    chooses = out[1:2] == ["sweep"] or (out[1:2] == ["fit"] and
-                                        ("--budget" in out or "--ratio" in out))
-    if chooses and "--iterations" not in out:
+    if out[1:2] == ["sweep"] and "--iterations" not in out:
         out += SWEEP_ITERATIONS
     return out
+
+
+def at_full_size(words):
+    """A fit --budget (or --ratio): run as written, on data generated as written."""
+    return words[1:2] == ["fit"] and ("--budget" in words or "--ratio" in words)
+
+
+def full_size_data(words, generated, work):
+    """The command with its data (the word after `fit`) replaced by a full-size copy, which
+    the README's own generate line for that folder writes (once) as written."""
+    data = words[2]
+    made = generated.get(data.rstrip("/"))
+    if made is None:
+        return words
+    full = data.rstrip("/") + "-full-size/"
+    if not os.path.exists(os.path.join(work, full)):
+        argv = list(made)
+        argv[argv.index("-o" if "-o" in argv else "--output") + 1] = full
+        subprocess.run(argv, cwd=work, check=True, capture_output=True, timeout=600)
+    return words[:2] + [full] + words[3:]
 
 
 def option(words, name):
@@ -122,6 +141,7 @@ def main():
     with tempfile.TemporaryDirectory(prefix="btfgmm_readme_") as work:
         os.symlink(os.path.join(source, "examples"), os.path.join(work, "examples"))
         python_path = os.path.join(os.path.dirname(binary), "python")
+        generated = {}  # each folder the README generates: its generate command as written
         for line in commands:
             start = time.time()
             if line.startswith(PYTHON_BLOCK) or line.startswith(PYTHON_LINES):
@@ -134,7 +154,11 @@ def main():
                 continue
             if words[0] != "btfgmm":
                 sys.exit(f"FAIL: README command is not btfgmm's: {line}")
-            argv = [binary] + smaller(words)[1:]
+            if words[1] == "generate":
+                generated[(option(words, "-o") or option(words, "--output")).rstrip("/")] = (
+                    [binary] + words[1:])
+            argv = ([binary] + full_size_data(words, generated, work)[1:] if at_full_size(words)
+                    else [binary] + smaller(words)[1:])
             checkpoint = option(words, "--checkpoint")
             if words[1] == "fit" and checkpoint in resumed:
                 code = run_interrupted(argv, checkpoint, work)
@@ -144,7 +168,7 @@ def main():
                 if done.returncode != 0:
                     sys.exit(f"FAIL (exit {done.returncode}): {line}\n  ran: {shlex.join(argv)}\n"
                              f"{done.stderr.decode()}{done.stdout.decode()[-2000:]}")
-                note = "ok"
+                note = "ok, full size" if at_full_size(words) else "ok"
             ran += 1
             print(f"{time.time() - start:6.2f} s  {note:18s} {line[:100]}")
     print(f"README: {ran} commands ran in order")
