@@ -553,6 +553,7 @@ SampleSet first_lights(const SampleSet& s, std::size_t count) {
 }  // namespace
 
 double estimate_em_iteration_seconds(const SampleSet& s, std::size_t components, int threads) {
+  check_em_size(s, components);
   const std::size_t held = s.held_lights();
   const std::size_t probe = std::clamp<std::size_t>((held + 31) / 32, 1, held);
   const SampleSet p = first_lights(s, probe);

@@ -320,7 +320,7 @@ SampleSet read_sample_set(const BtfSource& source, const Tile& tile, std::uint64
   return s;
 }
 
-ProductMixture initial_mixture(const SampleSet& s, std::size_t components, std::uint64_t seed) {
+void check_em_size(const SampleSet& s, std::size_t components) {
   const std::size_t n = s.size();
   if (components < 1)
     throw Error(Error::Kind::kArgument, "components = 0: give at least one component");
@@ -339,6 +339,11 @@ ProductMixture initial_mixture(const SampleSet& s, std::size_t components, std::
                                    "views",
                                    components, s.width, s.height, s.lights, s.views),
                        "give fewer components (`components`) or a smaller tile (`tile`)");
+}
+
+ProductMixture initial_mixture(const SampleSet& s, std::size_t components, std::uint64_t seed) {
+  check_em_size(s, components);
+  const std::size_t n = s.size();
   // The samples the initialisation reads: every stride-th (at most ~1e6) for the variances,
   // then M distinct random ones for the means; their colours from the processes that hold
   // them.

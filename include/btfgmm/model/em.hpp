@@ -34,7 +34,8 @@ double mean_log_likelihood(const SampleSet& samples, const ProductMixture& mixtu
 // machine, timed on about 1/32 of the lights it holds (EM's tables in whole, the E pass of
 // those lights scaled to all of them, the M-step): the estimate a fit states before EM. Its M
 // components are equal and spread over the whole set, so that none is skipped as negligible:
-// EM's later iterations, with narrower components, tend to take less.
+// EM's later iterations, with narrower components, tend to take less. Throws as
+// check_em_size before any work.
 double estimate_em_iteration_seconds(const SampleSet& samples, std::size_t components,
                                      int threads = 0);
 

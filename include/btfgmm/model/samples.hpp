@@ -104,6 +104,10 @@ std::pair<std::size_t, std::size_t> light_share(std::size_t lights, int rank, in
 std::vector<std::array<float, 3>> gather_colours(const SampleSet& samples,
                                                  std::span<const std::size_t> indices);
 
+// Throws Error(kArgument) for no components, more components than samples, and EM's memory
+// for `components` on `samples` beyond what this machine allows (limits::check_memory).
+void check_em_size(const SampleSet& samples, std::size_t components);
+
 // Random initialisation (seeded): means at M distinct random samples, variances the
 // variance of each variable over the sample set divided by M^(1/3), equal weights. The same
 // on every process of a distributed set.
