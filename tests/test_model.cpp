@@ -244,6 +244,24 @@ SampleSet ring_samples() {
                                    DirectionSet::parse("rings:0/1,40/6")));
 }
 
+// EM's timing probe holds the first lights' samples as the whole set holds them, and its
+// estimate of an iteration is a positive time (its size checked first, as EM's).
+TEST(Em, TheTimingProbeHoldsTheFirstLightsSamples) {
+  const SampleSet s = ring_samples();
+  const SampleSet p = first_lights(s, 2);
+  EXPECT_EQ(p.held_lights(), 2u);
+  EXPECT_EQ(p.held_size() * 7, s.held_size() * 2);
+  for (std::size_t px = 0; px < s.pixels(); px += 5)
+    for (std::size_t l = 0; l < 2; ++l)
+      for (std::size_t v = 0; v < s.views; ++v)
+        for (int c = 0; c < 3; ++c)
+          ASSERT_EQ(p.residual_of(px, l, v, c), s.residual_of(px, l, v, c));
+  EXPECT_EQ(p.sample(3 * 7 * 7 + 1 * 7 + 4),
+            s.sample(3 * 7 * 7 + 1 * 7 + 4));  // pixel 3, light 1, view 4
+  EXPECT_GT(estimate_em_iteration_seconds(s, 40, 1), 0.0);
+  EXPECT_THROW(estimate_em_iteration_seconds(s, s.size() + 1, 1), Error);
+}
+
 TEST(Em, FinalLogLikelihoodIsThatOfTheReturnedParameters) {
   const SampleSet s = ring_samples();
   ProductMixture a = initial_mixture(s, 40, 9), b = a;

@@ -520,38 +520,6 @@ EmResult fit_em(const SampleSet& s, ProductMixture& mix, const EmConfig& config,
   return result;
 }
 
-namespace {
-
-// The first `count` lights of those `s` holds, as a sample set of their own (the timing probe
-// of estimate_em_iteration_seconds).
-SampleSet first_lights(const SampleSet& s, std::size_t count) {
-  SampleSet p;
-  p.width = s.width;
-  p.height = s.height;
-  p.lights = s.lights;
-  p.views = s.views;
-  p.first_light = s.first_light;
-  p.held = count;
-  p.scaling = s.scaling;
-  p.mean_brdf = s.mean_brdf;
-  p.inv_colour_unit = s.inv_colour_unit;
-  p.light_ab = s.light_ab;
-  p.view_ab = s.view_ab;
-  const auto copy = [&](const auto& from, auto& to) {
-    if (from.empty()) return;
-    const std::size_t block = count * s.views * 3, stride = s.held_lights() * s.views * 3;
-    to.reserve(block * s.pixels());
-    for (std::size_t px = 0; px < s.pixels(); ++px)
-      to.insert(to.end(), from.begin() + std::ptrdiff_t(px * stride),
-                from.begin() + std::ptrdiff_t(px * stride + block));
-  };
-  copy(s.levels, p.levels);
-  copy(s.residual, p.residual);
-  return p;
-}
-
-}  // namespace
-
 double estimate_em_iteration_seconds(const SampleSet& s, std::size_t components, int threads) {
   check_em_size(s, components);
   const std::size_t held = s.held_lights();

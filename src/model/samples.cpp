@@ -320,6 +320,32 @@ SampleSet read_sample_set(const BtfSource& source, const Tile& tile, std::uint64
   return s;
 }
 
+SampleSet first_lights(const SampleSet& s, std::size_t count) {
+  SampleSet p;
+  p.width = s.width;
+  p.height = s.height;
+  p.lights = s.lights;
+  p.views = s.views;
+  p.first_light = s.first_light;
+  p.held = count;
+  p.scaling = s.scaling;
+  p.mean_brdf = s.mean_brdf;
+  p.inv_colour_unit = s.inv_colour_unit;
+  p.light_ab = s.light_ab;
+  p.view_ab = s.view_ab;
+  const auto copy = [&](const auto& from, auto& to) {
+    if (from.empty()) return;
+    const std::size_t block = count * s.views * 3, stride = s.held_lights() * s.views * 3;
+    to.reserve(block * s.pixels());
+    for (std::size_t px = 0; px < s.pixels(); ++px)
+      to.insert(to.end(), from.begin() + std::ptrdiff_t(px * stride),
+                from.begin() + std::ptrdiff_t(px * stride + block));
+  };
+  copy(s.levels, p.levels);
+  copy(s.residual, p.residual);
+  return p;
+}
+
 void check_em_size(const SampleSet& s, std::size_t components) {
   const std::size_t n = s.size();
   if (components < 1)

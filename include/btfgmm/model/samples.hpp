@@ -104,6 +104,10 @@ std::pair<std::size_t, std::size_t> light_share(std::size_t lights, int rank, in
 std::vector<std::array<float, 3>> gather_colours(const SampleSet& samples,
                                                  std::span<const std::size_t> indices);
 
+// The first `count` (1 .. held_lights()) of the lights `samples` holds, as a sample set of
+// their own on this process alone (EM's timing probe, estimate_em_iteration_seconds).
+SampleSet first_lights(const SampleSet& samples, std::size_t count);
+
 // Throws Error(kArgument) for no components, more components than samples, and EM's memory
 // for `components` on `samples` beyond what this machine allows (limits::check_memory).
 void check_em_size(const SampleSet& samples, std::size_t components);
