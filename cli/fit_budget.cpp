@@ -43,8 +43,8 @@ void print_candidates(const BudgetChoice& c, std::uint64_t budget) {
   fmt::print(stderr,
              "chose {} {}: {} bytes of the {} budgeted, the highest PSNR ({} dB) of the "
              "candidates that fit (each method's largest size whose file fits: its ladder of "
-             "sizes, as sweep fits it, walked up, then the sizes between predicted and "
-             "confirmed; every file as fit writes it by default)\n",
+             "sizes, as sweep fits it, walked up, then the sizes between rungs and above the "
+             "largest predicted and confirmed; every file as fit writes it by default)\n",
              b.method, b.size, b.file_bytes, budget, db_text(b.psnr_db));
 }
 

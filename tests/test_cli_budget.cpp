@@ -159,6 +159,22 @@ std::size_t mixture_size(const Row& row) {
   return std::stoul(row.size.substr(row.size.find('=') + 1));
 }
 
+// A method's largest size among the candidates that fit and its least over the budget (0 if
+// none).
+std::pair<std::size_t, std::size_t> largest_fit_and_least_over(const std::vector<Row>& rows,
+                                                               const std::string& method) {
+  std::size_t largest_fit = 0, least_over = 0;
+  for (const Row& row : rows) {
+    if (row.method != method) continue;
+    const std::size_t m = mixture_size(row);
+    if (row.mark != "over the budget")
+      largest_fit = std::max(largest_fit, m);
+    else if (least_over == 0 || m < least_over)
+      least_over = m;
+  }
+  return {largest_fit, least_over};
+}
+
 // Within a budget that a plain fit's file fits, for a size of the ladder (the default fit,
 // M = 600, is the mixture's top rung), the choice is at least as good; and the mixture's
 // search ends on the largest M whose file fits: M + 1 was tried and is over.
@@ -195,18 +211,21 @@ TEST(BudgetCli, NeverWorseThanAPlainFitAndFindsTheLargestSizeThatFits) {
   // A budget between the mixture's rungs: its largest M that fits, the next one over.
   r = run(fmt::format("fit {}/btf --budget {} --iterations 2 -o {}/c.btfgmm", d, budget / 2, d));
   ASSERT_EQ(r.status, 0) << r.err;
-  std::size_t largest_fit = 0, least_over = 0;
-  for (const Row& row : candidates(r.err)) {
-    if (row.method != "gm") continue;
-    const std::size_t m = mixture_size(row);
-    if (row.mark != "over the budget")
-      largest_fit = std::max(largest_fit, m);
-    else if (least_over == 0 || m < least_over)
-      least_over = m;
-  }
+  const auto [largest_fit, least_over] = largest_fit_and_least_over(candidates(r.err), "gm");
   ASSERT_GT(largest_fit, 0u) << r.err;
   ASSERT_GT(least_over, 0u) << r.err;
   EXPECT_EQ(least_over, largest_fit + 1) << r.err;
+
+  // A budget above the largest rung the tile allows (M = 30; M = 100 is refused): the sizes
+  // above it are searched too, up to the largest M whose file fits or the tile supports.
+  r = run(
+      fmt::format("fit {}/btf --budget {} --iterations 2 -o {}/e.btfgmm", d, budget * 5 / 4, d));
+  ASSERT_EQ(r.status, 0) << r.err;
+  const auto [largest, over] = largest_fit_and_least_over(candidates(r.err), "gm");
+  EXPECT_GT(largest, 30u) << r.err;
+  const bool next_refused =
+      r.err.find(fmt::format("skipped  gm components {},", largest + 1)) != std::string::npos;
+  EXPECT_TRUE(over == largest + 1 || next_refused) << r.err;
   fs::remove_all(dir);
 }
 

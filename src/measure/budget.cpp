@@ -5,6 +5,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
+#include <tuple>
+#include <utility>
 
 #include "btfgmm/core/error.hpp"
 #include "btfgmm/core/text.hpp"
@@ -90,7 +93,8 @@ struct Probe {
 
 // The search of one method's sizes: its ladder walked up from the smallest model while the
 // file fits, then, between the largest rung that fits and the first that does not (or below
-// the smallest rung, down to a size of 1), the largest size whose file fits, found by
+// the smallest rung, down to a size of 1; or above the largest, when it fits), the largest
+// size whose file fits, found by
 // predicting each size's bytes from the two nearest fitted (linear in the size, as every
 // method's parameter count is) and confirming the prediction with the real file.
 class MethodSearch {
@@ -103,16 +107,22 @@ class MethodSearch {
     smallest_ = &smallest;
     smallest_bytes_ = &smallest_bytes;
     const std::vector<MethodSettings> ladder = m_.ladder(ModelFrame::of(tile_));
-    std::optional<Probe> fits, over;
+    std::optional<Probe> below, fits, over;
+    std::optional<MethodSettings> refused;  // the first rung above `fits` the method refused
     std::size_t over_rung = 0;
     for (std::size_t k = 0; k < ladder.size() && !over; ++k) {
       const std::optional<Probe> p = fit(ladder[k]);
       if (synthesis_) return;
-      if (!p) continue;
-      (p->fits ? fits : over) = p;
+      if (!p) {
+        if (fits && !refused) refused = ladder[k];
+        continue;
+      }
+      if (p->fits) std::tie(below, fits) = std::pair(fits, p);
+      if (!p->fits) over = p;
       over_rung = k;
     }
-    if (!over) return;  // the largest rung fits (or none could be fitted)
+    if (!over && fits) return above(below, *fits, refused);
+    if (!over) return;  // none could be fitted
     if (fits) return between(*fits, *over);
     // The smallest rung is over the budget: sizes below it, down to 1.
     if (over_rung + 1 >= ladder.size()) return;
@@ -140,12 +150,49 @@ class MethodSearch {
       MethodSettings s = lo.settings;
       s.*f = std::clamp(v, a + 1, b - 1);
       const std::optional<Probe> p = fit(s);
-      if (!p || synthesis_) return;
+      if (synthesis_) return;
+      if (!p) {  // refused for the tile, as every larger size is: no bytes, so halve below it
+        hi = Probe{.settings = s};
+        continue;
+      }
       (p->fits ? lo : hi) = *p;
       twice = (p->fits ? 1 : 2) == last;
       last = p->fits ? 1 : 2;
     }
   }
+
+  // Above the largest rung, which fits: sizes predicted from the two largest that fit (or
+  // twice the size, from one), each confirmed, until one is over the budget (then `between`),
+  // the method refuses one (then `between` it and the last that fits, halving), or
+  // kAboveTries sizes were fitted. `refused`, a rung the method refused, caps the sizes.
+  void above(std::optional<Probe> below, Probe top, std::optional<MethodSettings> refused) {
+    const SizeField f = below ? varying_size(below->settings, top.settings)
+                              : (refused ? varying_size(top.settings, *refused) : nullptr);
+    if (!f) return;
+    std::size_t cap = refused ? (*refused).*f : std::numeric_limits<std::size_t>::max();
+    for (int tries = 0; tries < kAboveTries && top.settings.*f + 1 < cap; ++tries) {
+      MethodSettings s = top.settings;
+      s.*f = std::min(predicted_size_above(below, top, f), cap - 1);
+      const std::optional<Probe> p = fit(s);
+      if (synthesis_) return;
+      if (!p) return between(top, Probe{.settings = s});  // refused: no bytes, so halve
+      if (!p->fits) return between(top, *p);
+      below = top;
+      top = *p;
+    }
+  }
+
+  // The size whose file the line through `below` and `top` puts at the budget (at least one
+  // more than top's; twice top's when there is no `below` or the bytes did not grow).
+  std::size_t predicted_size_above(const std::optional<Probe>& below, const Probe& top,
+                                   SizeField f) const {
+    const std::size_t t = top.settings.*f;
+    if (!below || top.bytes <= below->bytes) return 2 * t;
+    const double per_size = double(top.bytes - below->bytes) / double(t - below->settings.*f);
+    return t + std::max<std::size_t>(1, std::size_t(double(r_.budget - top.bytes) / per_size));
+  }
+
+  static constexpr int kAboveTries = 4;
 
   // One setting fitted, measured and recorded as a candidate (the best that fits kept).
   std::optional<Probe> fit(const MethodSettings& s) {

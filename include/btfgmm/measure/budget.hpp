@@ -2,7 +2,8 @@
 // stored as `fit` stores it by default (default_file_encoding). For each pixel-wise method, the
 // largest size whose file fits: its ladder of sizes (MethodInfo::ladder, as `sweep` fits it)
 // walked from its smallest model up while the file fits, then the sizes between the last rung
-// that fits and the first that does not (below the smallest rung: down to a size of 1)
+// that fits and the first that does not (below the smallest rung: down to a size of 1; above
+// the largest, when it fits: up to the first size over the budget or refused for the tile)
 // searched by predicting a size's bytes from the two nearest fitted and confirming with the
 // real file, every setting fitted and measured as run_sweep does; then the candidate that fits
 // with the highest PSNR on the tile kept. `btfgmm fit --budget` and `--ratio` format what
