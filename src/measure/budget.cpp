@@ -161,10 +161,11 @@ class MethodSearch {
     }
   }
 
-  // Above the largest rung, which fits: sizes predicted from the two largest that fit (or
-  // twice the size, from one), each confirmed, until one is over the budget (then `between`),
-  // the method refuses one (then `between` it and the last that fits, halving), or
-  // kAboveTries sizes were fitted. `refused`, a rung the method refused, caps the sizes.
+  // Above the largest rung, which fits: sizes predicted from the line through the rung below
+  // it and the largest size that fits so far (or twice the size, from one), each confirmed, until
+  // one is over the budget (then `between`), the method refuses one (then `between` it and the last
+  // that fits, halving), or kAboveTries sizes were fitted. `refused`, a rung the method refused,
+  // caps the sizes.
   void above(std::optional<Probe> below, Probe top, std::optional<MethodSettings> refused) {
     const SizeField f = below ? varying_size(below->settings, top.settings)
                               : (refused ? varying_size(top.settings, *refused) : nullptr);
@@ -177,8 +178,8 @@ class MethodSearch {
       if (synthesis_) return;
       if (!p) return between(top, Probe{.settings = s});  // refused: no bytes, so halve
       if (!p->fits) return between(top, *p);
-      below = top;
-      top = *p;
+      top = *p;  // `below` stays: a file's bytes are not strictly monotone in the size, so the
+                 // slope is taken over the widest span fitted
     }
   }
 
