@@ -120,7 +120,7 @@ TEST_F(CliProvenance, InfoShowsTheProvenanceAndTheUnits) {
   ASSERT_EQ(fit("-M 4 --iterations 3 --seed 5 -q -o " + p("c.btfgmm")).status, 0);
   CliRun r = run("info " + p("c.btfgmm"));
   ASSERT_EQ(r.status, 0) << r.err;
-  for (const char* needle : {"btfgmm format 7", "fitted to    '", "content hash ", "seed 5",
+  for (const char* needle : {"btfgmm format 8", "fitted to    '", "content hash ", "seed 5",
                              "3 logged", "nats per sample", "model units  x, y 1 pixel"})
     EXPECT_TRUE(has(r.out, needle)) << needle << ": " << r.out;
   EXPECT_FALSE(has(r.out, "(model units)")) << r.out;

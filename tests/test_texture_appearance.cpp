@@ -136,13 +136,33 @@ INSTANTIATE_TEST_SUITE_P(Materials, TextureAppearance,
                            return n;
                          });
 
-// A fitted model's file says it holds the image moments, predicted (flags kImageMoments |
-// kPredictedImageMoments, format 7).
+// The regular motifs survive the synthesis: a Gaussian field draws its phases at random, so
+// only the relief structure (the range map's features, fitted per subspace and added back)
+// keeps corduroy's wales and knit's stitches in place. Every image's luminance autocorrelation
+// at lags 1-4 in x and y, against its data image's: the mean difference over the images.
+TEST_P(TextureAppearance, TheReliefKeepsTheMaterialsStructure) {
+  const Btf data = material(GetParam().material);
+  MethodSettings s;
+  s.clusters = 4;
+  const auto model = find_method(GetParam().method).fit(data, s);
+  const TextureStatistics t =
+      texture_statistics(data, model->decode(data.lights(), data.views(), 32, 32, 0));
+  // Without the relief (measured on these CI-sized tiles): corduroy 0.157 to 0.218, knit
+  // 0.135 to 0.155, leather 0.092 to 0.119; with it 0.082 to 0.088, 0.124 to 0.130, 0.102 to
+  // 0.105. Corduroy's bound is the one the relief must earn; the others hold what it gives.
+  const double bound = std::string(GetParam().material) == "corduroy" ? 0.12
+                       : std::string(GetParam().material) == "knit"   ? 0.15
+                                                                      : 0.12;
+  EXPECT_LE(t.autocorrelation_difference, bound);
+}
+
+// A fitted model's file says it holds the image moments, predicted, and the relief structure
+// (flags kImageMoments | kPredictedImageMoments | kReliefStructure, format 8).
 TEST(TextureAppearance, AFittedModelStoresItsImageMoments) {
   MethodSettings s;
   s.clusters = 2;
   const auto model = find_method("2d-car").fit(material("leather"), s);
-  EXPECT_EQ(model->file_flags(), kImageMoments | kPredictedImageMoments);
+  EXPECT_EQ(model->file_flags(), kImageMoments | kPredictedImageMoments | kReliefStructure);
   const auto details = model->details();
   const auto it = std::find_if(details.begin(), details.end(),
                                [](const auto& d) { return d.first == "image moments"; });
@@ -152,9 +172,9 @@ TEST(TextureAppearance, AFittedModelStoresItsImageMoments) {
 
 // For 81 x 81 directions the image moments are 39,366 codes. In steps of a level and half a
 // level, each predicted from its neighbours on the light x view grid (format version 7), a
-// gmrf fit to a generated 16 x 16 knit with 15 subspaces is a file under 28 KB (27.1 KB),
-// where the moments in finer steps coded along the images (version 6) made it 40.8 KB
-// (docs/FORMAT.md).
+// gmrf fit to a generated 16 x 16 knit with 15 subspaces is a file under 29 KB (27.1 KB, and
+// 1.4 KB of relief gains from version 8 on), where the moments in finer steps coded along the
+// images (version 6) made it 40.8 KB (docs/FORMAT.md).
 TEST(TextureAppearance, TheImageMomentsOfEightyOneByEightyOneImagesAreCompact) {
   GenerateConfig g;
   g.material = "knit";
@@ -162,7 +182,7 @@ TEST(TextureAppearance, TheImageMomentsOfEightyOneByEightyOneImagesAreCompact) {
   g.seed = 5;
   const auto model = find_method("gmrf").fit(generate(g), MethodSettings{});
   EXPECT_EQ(model->size_text(), "c = 15");
-  EXPECT_LT(representation_file_bytes(*model).size(), 28000u);
+  EXPECT_LT(representation_file_bytes(*model).size(), 29000u);
 }
 
 }  // namespace

@@ -372,5 +372,17 @@ TEST(TextureMethods, VersionSevenFilesStillReadAndSynthesiseAlike) {
                       kImageMoments | kPredictedImageMoments);
 }
 
+// The same tile and fits written as format version 8 (flags 56: each subspace's relief
+// structure added; `btfgmm generate --material knit --size 8 --seed 7 --lights
+// rings:0/1,30/4,60/4 --views rings:0/1,40/2`, then `fit --method M --clusters 2 --precision
+// f16 --threads 2`).
+TEST(TextureMethods, VersionEightFilesStillReadAndSynthesiseAlike) {
+  expect_golden_files("golden_v8_",
+                      {{"3d-car", 547, {190.286743f, 176.961990f, 155.945114f}},
+                       {"2d-car", 541, {195.019394f, 181.048309f, 160.045364f}},
+                       {"gmrf", 551, {189.099854f, 175.790059f, 154.933319f}}},
+                      kImageMoments | kPredictedImageMoments | kReliefStructure);
+}
+
 }  // namespace
 }  // namespace btfgmm

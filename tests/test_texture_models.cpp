@@ -13,6 +13,7 @@
 #include "methods/colour_texture.hpp"
 #include "methods/gmrf.hpp"
 #include "methods/pyramid.hpp"
+#include "methods/relief_structure.hpp"
 
 namespace btfgmm::detail {
 namespace {
@@ -292,6 +293,69 @@ TEST(Pyramid, TwoLevelsReproduceTheEnergyAtEachScaleBetter) {
     }
   }
   EXPECT_LT(two_sum, 0.85 * one_sum) << one_sum / 6 << " -> " << two_sum / 6;
+}
+
+// The relief structure's known answer: an image made, pixel by pixel, from a range map's
+// shape (height, squared slopes and their product, curvature) and its slope along the light,
+// all written out here on the torus, with known gains, gives those gains back; taking the
+// shape and the slope away leaves nothing; at twice the size the structure repeats the tile's,
+// and under the light from the opposite azimuth the slope changes sign.
+TEST(ReliefStructure, KnownGainsAreRecoveredAndTheStructureTiles) {
+  const int w = 12, h = 10;
+  std::vector<float> heights(std::size_t(w * h));
+  const double pi = std::acos(-1.0);
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x)
+      heights[std::size_t(y * w + x)] =
+          float(std::sin(2 * pi * x / w) + 0.6 * std::cos(4 * pi * y / h) +
+                0.3 * std::sin(2 * pi * (x + 2 * y) / w));
+  const auto z = [&](int x, int y) {
+    return double(heights[std::size_t(((y + h) % h) * w + (x + w) % w)]);
+  };
+  const Vec3 light{0.5, -0.3, std::sqrt(1 - 0.34)};
+  const double gains[3][kReliefFeatures] = {
+      {120, 8, 3, -2, 1.5, 4, 20}, {90, -5, -1, 2, 0.5, -3, 12}, {60, 2, 6, 1, -2, 7, -9}};
+  std::vector<double> rgb(std::size_t(w * h) * 3), slope_only(rgb.size());
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
+      const double hx = (z(x + 1, y) - z(x - 1, y)) / 2, hy = (z(x, y + 1) - z(x, y - 1)) / 2;
+      const double f[kReliefFeatures] = {
+          1,
+          z(x, y),
+          hx * hx,
+          hy * hy,
+          hx * hy,
+          z(x + 1, y) + z(x - 1, y) + z(x, y + 1) + z(x, y - 1) - 4 * z(x, y),
+          -(hx * light.x + hy * light.y)};
+      for (int c = 0; c < 3; ++c) {
+        double v = 0;
+        for (int j = 0; j < kReliefFeatures; ++j) v += gains[c][j] * f[j];
+        rgb[std::size_t(y * w + x) * 3 + std::size_t(c)] = v;
+        slope_only[std::size_t(y * w + x) * 3 + std::size_t(c)] = gains[c][6] * f[6];
+      }
+    }
+  const ReliefFeatures features = relief_features(heights, w, h);
+  const ReliefStructure s = fit_relief_structure(features, light, rgb.data());
+  for (int c = 0; c < 3; ++c)
+    for (int j = 0; j < kReliefFeatures; ++j)
+      EXPECT_NEAR(s.gain[std::size_t(c * kReliefFeatures + j)], gains[c][j],
+                  1e-4 * (1 + std::abs(gains[c][j])))
+          << c << " " << j;
+  std::vector<double> rest = rgb;
+  add_relief_shape(s, features, rest.data(), w, h, -1.0);
+  add_relief_slope(s, features, light, rest.data(), w, h, -1.0);
+  for (double v : rest) EXPECT_NEAR(v, 0.0, 1e-3);
+  std::vector<double> twice(std::size_t(4 * w * h) * 3, 0.0);
+  add_relief_shape(s, features, twice.data(), 2 * w, 2 * h);
+  add_relief_slope(s, features, light, twice.data(), 2 * w, 2 * h);
+  for (int y = 0; y < 2 * h; ++y)
+    for (int x = 0; x < 2 * w; ++x)
+      for (int c = 0; c < 3; ++c)
+        EXPECT_NEAR(twice[std::size_t(y * 2 * w + x) * 3 + std::size_t(c)],
+                    rgb[std::size_t((y % h) * w + x % w) * 3 + std::size_t(c)], 1e-3);
+  std::vector<double> opposite(rgb.size(), 0.0);
+  add_relief_slope(s, features, Vec3{-light.x, -light.y, light.z}, opposite.data(), w, h);
+  for (std::size_t i = 0; i < opposite.size(); ++i) EXPECT_NEAR(opposite[i], -slope_only[i], 1e-3);
 }
 
 }  // namespace

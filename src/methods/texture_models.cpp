@@ -15,6 +15,7 @@
 #include "methods/factors.hpp"
 #include "methods/image_moments.hpp"
 #include "methods/pyramid.hpp"
+#include "methods/relief_structure.hpp"
 #include "model/conditional.hpp"
 
 namespace btfgmm {
@@ -65,7 +66,8 @@ TextureModel::TextureModel(std::string_view method, ModelFrame frame,
                            std::vector<std::uint8_t> labels, std::vector<Subspace> subspaces,
                            std::vector<float> heights, std::uint64_t seed,
                            FactorEncoding range_encoding,
-                           std::shared_ptr<const detail::ImageMoments> moments)
+                           std::shared_ptr<const detail::ImageMoments> moments,
+                           std::shared_ptr<const std::vector<detail::ReliefStructure>> relief)
     : method_(method),
       frame_(std::move(frame)),
       labels_(std::move(labels)),
@@ -73,8 +75,12 @@ TextureModel::TextureModel(std::string_view method, ModelFrame frame,
       heights_(std::move(heights)),
       seed_(seed),
       range_encoding_(range_encoding),
-      moments_(std::move(moments)) {
+      moments_(std::move(moments)),
+      relief_(std::move(relief)) {
   normals_ = normals_of(heights_, frame_.width, frame_.height);
+  if (relief_)
+    relief_features_ = std::make_shared<detail::ReliefFeatures>(
+        detail::relief_features(heights_, frame_.width, frame_.height));
   for (const Direction& l : frame_.lights) mean_lit_.push_back(mean_lit(normals_, l));
   synthesise_tiles();
 }
@@ -82,15 +88,18 @@ TextureModel::TextureModel(std::string_view method, ModelFrame frame,
 void TextureModel::synthesise_tiles() {
   tiles_.assign(subspaces_.size(), {});
 #pragma omp parallel for schedule(dynamic, 1)
-  for (std::ptrdiff_t k = 0; k < std::ptrdiff_t(subspaces_.size()); ++k) {
-    const detail::Field f =
-        subspaces_[std::size_t(k)]->synthesise(frame_.width, frame_.height, seed_);
-    tiles_[std::size_t(k)].assign(f.values.begin(), f.values.end());
-    if (moments_)
-      detail::match_marginal(tiles_[std::size_t(k)].data(), frame_.pixels(),
-                             moments_->marginals[std::size_t(k)]);
-  }
+  for (std::ptrdiff_t k = 0; k < std::ptrdiff_t(subspaces_.size()); ++k)
+    tiles_[std::size_t(k)] = synthesise_subspace(std::size_t(k), frame_.width, frame_.height);
   measure_shaded_tiles();
+}
+
+std::vector<float> TextureModel::synthesise_subspace(std::size_t k, int width, int height) const {
+  detail::Field f = subspaces_[k]->synthesise(width, height, seed_);
+  if (relief_)
+    detail::add_relief_shape((*relief_)[k], *relief_features_, f.values.data(), width, height);
+  std::vector<float> out(f.values.begin(), f.values.end());
+  if (moments_) detail::match_marginal(out.data(), f.pixels(), moments_->marginals[k]);
+  return out;
 }
 
 void TextureModel::measure_shaded_tiles() {
@@ -100,14 +109,31 @@ void TextureModel::measure_shaded_tiles() {
   shaded_moments_.assign(subspaces_.size() * nl * 6, 0.0f);
 #pragma omp parallel for schedule(dynamic, 1)
   for (std::ptrdiff_t l = 0; l < std::ptrdiff_t(nl); ++l) {
-    const std::vector<float> shade = shading(frame_.lights[std::size_t(l)]);
     std::vector<float> img(pixels * 3);
     for (std::size_t k = 0; k < subspaces_.size(); ++k) {
-      for (std::size_t i = 0; i < img.size(); ++i) img[i] = tiles_[k][i] * shade[i / 3];
+      light_synthesis(k, frame_.lights[std::size_t(l)], tiles_[k], frame_.width, frame_.height,
+                      img.data());
       float* m = &shaded_moments_[(k * nl + std::size_t(l)) * 6];
       detail::measure_moments(img.data(), pixels, m, m + 3);
     }
   }
+}
+
+void TextureModel::light_synthesis(std::size_t k, const Direction& light, std::span<const float> s,
+                                   int width, int height, float* out) const {
+  std::copy(s.begin(), s.end(), out);
+  if (relief_)
+    detail::add_relief_slope((*relief_)[k], *relief_features_,
+                             to_vector(frame_.lights[nearest(frame_.lights, light)]), out, width,
+                             height);
+  const std::vector<float> shade = shading(light);
+  const int tw = frame_.width, th = frame_.height;
+  for (int y = 0; y < height; ++y)
+    for (int x = 0; x < width; ++x) {
+      const float b = shade[std::size_t((y % th) * tw + x % tw)];
+      float* p = &out[(std::size_t(y) * std::size_t(width) + std::size_t(x)) * 3];
+      for (std::size_t c = 0; c < 3; ++c) p[c] *= b;
+    }
 }
 
 void TextureModel::set_synthesis_seed(std::uint64_t seed, std::string_view) {
@@ -122,6 +148,7 @@ std::string TextureModel::size_text() const {
 std::uint64_t TextureModel::parameter_count() const {
   std::uint64_t n = labels_.size() + heights_.size();
   if (moments_) n += labels_.size() * 6 + subspaces_.size() * 3 * detail::kQuantiles;
+  if (relief_) n += relief_->size() * 3 * detail::kReliefFeatures;
   for (const Subspace& s : subspaces_) n += s->parameter_count();
   return n;
 }
@@ -135,7 +162,7 @@ std::size_t TextureModel::label_of(const Direction& light, const Direction& view
 }
 
 std::uint32_t TextureModel::file_flags() const {
-  return moments_ ? kImageMoments | kPredictedImageMoments : 0;
+  return (moments_ ? kImageMoments | kPredictedImageMoments : 0) | (relief_ ? kReliefStructure : 0);
 }
 
 float TextureModel::shading(std::size_t pixel, const Direction& light) const {
@@ -164,6 +191,7 @@ void TextureModel::predict(std::span<const Query> queries, std::span<float> rgb)
     detail::check_direction(q.view, "view");
     const std::size_t image = image_of(q.light, q.view), k = labels_[image];
     const std::vector<float>& tile = tiles_[k];
+    const Vec3 lit = to_vector(frame_.lights[image / frame_.views.size()]);
     const double fx = std::floor(q.x), fy = std::floor(q.y);
     const double wx = q.x - fx, wy = q.y - fy;
     for (std::size_t c = 0; c < 3; ++c) rgb[i * 3 + c] = 0.0f;
@@ -175,7 +203,9 @@ void TextureModel::predict(std::span<const Query> queries, std::span<float> rgb)
       const long long y = ((static_cast<long long>(fy) + dy) % h + h) % h;
       const std::size_t p = std::size_t(y * w + x);
       const float b = float(weight) * shading(p, q.light);
-      for (std::size_t c = 0; c < 3; ++c) rgb[i * 3 + c] += tile[p * 3 + c] * b;
+      float v[3] = {tile[p * 3], tile[p * 3 + 1], tile[p * 3 + 2]};
+      if (relief_) detail::add_relief_slope_at((*relief_)[k], *relief_features_, lit, x, y, v);
+      for (std::size_t c = 0; c < 3; ++c) rgb[i * 3 + c] += v[c] * b;
     }
     if (moments_) {  // the image's moments from the shaded tile's
       const float* have =
@@ -202,20 +232,13 @@ Btf TextureModel::decode(const DirectionSet& lights, const DirectionSet& views, 
       const std::size_t k = label_of(l, v);
       if (!synth[k]) synth[k] = &synthesised(k, width, height);
     }
-  const int tw = frame_.width, th = frame_.height;
 #pragma omp parallel for schedule(dynamic, 1)
   for (std::ptrdiff_t li = 0; li < std::ptrdiff_t(lights.size()); ++li) {
     const Direction& light = lights[std::size_t(li)];
-    const std::vector<float> shade = shading(light);
     for (std::size_t vi = 0; vi < views.size(); ++vi) {
-      const std::vector<float>& s = *synth[label_of(light, views[vi])];
+      const std::size_t k = label_of(light, views[vi]);
       float* img = out.image(std::size_t(li), vi);
-      for (int y = 0; y < height; ++y)
-        for (int x = 0; x < width; ++x) {
-          const std::size_t p = std::size_t(y) * std::size_t(width) + std::size_t(x);
-          const float b = shade[std::size_t((y % th) * tw + x % tw)];
-          for (std::size_t c = 0; c < 3; ++c) img[p * 3 + c] = s[p * 3 + c] * b;
-        }
+      light_synthesis(k, light, *synth[k], width, height, img);
       if (moments_) {
         const std::size_t image = image_of(light, views[vi]);
         const std::size_t n = std::size_t(width) * std::size_t(height);
@@ -238,11 +261,7 @@ const std::vector<float>& TextureModel::synthesised(std::size_t subspace, int wi
               .seed = seed_,
               .fields = std::vector<std::vector<float>>(subspaces_.size())};
   std::vector<float>& f = cache_.fields[subspace];
-  if (f.empty()) {
-    const detail::Field field = subspaces_[subspace]->synthesise(width, height, seed_);
-    f.assign(field.values.begin(), field.values.end());
-    if (moments_) detail::match_marginal(f.data(), field.pixels(), moments_->marginals[subspace]);
-  }
+  if (f.empty()) f = synthesise_subspace(subspace, width, height);
   return f;
 }
 
@@ -259,6 +278,8 @@ std::vector<std::uint8_t> TextureModel::payload() const {
     detail::put_image_moments(w, *moments_, frame_.views.size());
     for (const std::vector<float>& z : moments_->marginals) detail::put_marginal(w, z);
   }
+  if (relief_)
+    for (const detail::ReliefStructure& r : *relief_) detail::put_relief_structure(w, r);
   return std::move(w.bytes);
 }
 
@@ -284,15 +305,24 @@ std::vector<std::pair<std::string, std::string>> TextureModel::details() const {
        fmt::format("{} (a label for each of the {} images)", subspaces_.size(), labels_.size())},
       {"pyramid levels", pyramid_text()},
       {"neighbourhood", subspaces_.empty() ? "" : subspaces_[0]->neighbourhood() + ", subspace 1"},
-      {"values", fmt::format("{} labels + {} range map + {} model parameters{}", labels_.size(),
+      {"values", fmt::format("{} labels + {} range map + {} model parameters{}{}", labels_.size(),
                              heights_.size(), models,
                              moments_ ? fmt::format(" + {} image moments + {} marginal quantiles",
                                                     labels_.size() * 6,
                                                     subspaces_.size() * 3 * detail::kQuantiles)
-                                      : "")},
+                                      : "",
+                             relief_ ? fmt::format(" + {} relief gains",
+                                                   relief_->size() * 3 * detail::kReliefFeatures)
+                                     : "")},
       {"range map", fmt::format("{} x {}, heights {:.2f} to {:.2f} pixels ({})", frame_.width,
                                 frame_.height, *lo, *hi, to_string(range_encoding_))},
       {"seed", std::to_string(seed_)},
+      {"relief structure",
+       relief_ ? fmt::format("{} gains a channel a subspace: the range map's shape (height, "
+                             "squared slopes and their product, curvature) added to its "
+                             "synthesis, its slope along each image's light to that image",
+                             detail::kReliefFeatures)
+               : "none (a file before format version 8)"},
       {"image moments",
        moments_ ? fmt::format("mean and deviation per channel of each image, steps {:.3g} and "
                               "{:.3g} (a byte each)",

@@ -14,6 +14,7 @@
 #include "methods/factors.hpp"
 #include "methods/image_moments.hpp"
 #include "methods/pyramid.hpp"
+#include "methods/relief_structure.hpp"
 #include "methods/subspaces.hpp"
 
 namespace btfgmm {
@@ -71,10 +72,20 @@ detail::Field image_field(const Btf& tile, std::size_t image) {
   return f;
 }
 
+// The light of a tile's image.
+Vec3 light_of(const Btf& tile, std::size_t image) {
+  return to_vector(tile.lights()[image / tile.views().size()]);
+}
+
+// Each subspace's model of its representative image less its relief structure, fitted on
+// the range map's `features` into `relief`.
 std::vector<TextureModel::Subspace> fit_subspaces(TextureKind kind, const Btf& tile,
                                                   const detail::Subspaces& sub,
-                                                  const MethodSettings& s) {
+                                                  const MethodSettings& s,
+                                                  const detail::ReliefFeatures& features,
+                                                  std::vector<detail::ReliefStructure>& relief) {
   std::vector<TextureModel::Subspace> out(sub.representatives.size());
+  relief.assign(out.size(), {});
   std::atomic<std::size_t> done{0};
   std::atomic<bool> stopped{false};
 #pragma omp parallel for schedule(dynamic, 1)
@@ -83,9 +94,17 @@ std::vector<TextureModel::Subspace> fit_subspaces(TextureKind kind, const Btf& t
       stopped = true;
       continue;
     }
-    out[std::size_t(k)] = detail::fit_colour_texture(
-        kind, image_field(tile, sub.representatives[std::size_t(k)]), detail::kMaxCausalOrder,
-        pyramid_levels(tile, s), detail::CarSynthesis::kSpectral);
+    const std::size_t representative = sub.representatives[std::size_t(k)];
+    detail::Field image = image_field(tile, representative);
+    const Vec3 light = light_of(tile, representative);
+    detail::ReliefStructure& r = relief[std::size_t(k)];
+    r = detail::fit_relief_structure(features, light, image.values.data());
+    detail::add_relief_shape(r, features, image.values.data(), tile.width(), tile.height(), -1);
+    detail::add_relief_slope(r, features, light, image.values.data(), tile.width(), tile.height(),
+                             -1);
+    out[std::size_t(k)] =
+        detail::fit_colour_texture(kind, image, detail::kMaxCausalOrder, pyramid_levels(tile, s),
+                                   detail::CarSynthesis::kSpectral);
     const std::size_t n = ++done;
     if (s.progress) {
 #pragma omp critical(btfgmm_texture_progress)
@@ -102,9 +121,10 @@ std::unique_ptr<Representation> read_texture_model(TextureKind kind,
                                                    std::uint32_t flags, const std::string& name) {
   detail::ByteReader r(payload, "model file", name, "fit the model again");
   constexpr std::uint32_t predicted = kImageMoments | kPredictedImageMoments;
-  if (flags != 0 && flags != kImageMoments && flags != predicted)
-    r.fail(fmt::format("{} takes flags 0, {:#x} or {:#x}, the file has {:#x}", method_name(kind),
-                       kImageMoments, predicted, flags));
+  constexpr std::uint32_t with_relief = predicted | kReliefStructure;
+  if (flags != 0 && flags != kImageMoments && flags != predicted && flags != with_relief)
+    r.fail(fmt::format("{} takes flags 0, {:#x}, {:#x} or {:#x}, the file has {:#x}",
+                       method_name(kind), kImageMoments, predicted, with_relief, flags));
   // A file with the image moments (version 6 on) synthesises its CAR models on the torus;
   // one before them in raster order, as it always did.
   const bool moments = (flags & kImageMoments) != 0;
@@ -127,16 +147,22 @@ std::unique_ptr<Representation> read_texture_model(TextureKind kind,
     subspaces.push_back(detail::get_colour_texture(kind, levels, r, synthesis));
   std::shared_ptr<const detail::ImageMoments> image_moments;
   if (moments) {
-    detail::ImageMoments m = detail::get_image_moments(
-        r, labels.size(), frame.views.size(),
-        flags == predicted ? detail::MomentsCoding::kPredicted : detail::MomentsCoding::kDeltas);
+    detail::ImageMoments m =
+        detail::get_image_moments(r, labels.size(), frame.views.size(),
+                                  flags & kPredictedImageMoments ? detail::MomentsCoding::kPredicted
+                                                                 : detail::MomentsCoding::kDeltas);
     for (std::size_t k = 0; k < c; ++k) m.marginals.push_back(detail::get_marginal(r));
     image_moments = std::make_shared<detail::ImageMoments>(std::move(m));
+  }
+  std::shared_ptr<std::vector<detail::ReliefStructure>> relief;
+  if (flags & kReliefStructure) {
+    relief = std::make_shared<std::vector<detail::ReliefStructure>>();
+    for (std::size_t k = 0; k < c; ++k) relief->push_back(detail::get_relief_structure(r));
   }
   if (r.remaining() != 0) r.fail(fmt::format("{} bytes follow the model", r.remaining()));
   return std::make_unique<TextureModel>(method_name(kind), std::move(frame), std::move(labels),
                                         std::move(subspaces), std::move(heights), seed, encoding,
-                                        std::move(image_moments));
+                                        std::move(image_moments), std::move(relief));
 }
 
 std::unique_ptr<Representation> fit_texture_model(TextureKind kind, const Btf& tile,
@@ -147,13 +173,23 @@ std::unique_ptr<Representation> fit_texture_model(TextureKind kind, const Btf& t
   detail::quantise_factors(heights, heights.size(), s.encoding);
   const detail::Subspaces sub =
       detail::cluster_images(tile, s.clusters ? s.clusters : kDefaultSubspaces, s.seed);
-  std::vector<TextureModel::Subspace> models = fit_subspaces(kind, tile, sub, s);
+  const detail::ReliefFeatures features =
+      detail::relief_features(heights, tile.width(), tile.height());
+  auto relief = std::make_shared<std::vector<detail::ReliefStructure>>();
+  std::vector<TextureModel::Subspace> models = fit_subspaces(kind, tile, sub, s, features, *relief);
   auto moments = std::make_shared<detail::ImageMoments>(detail::measure_image_moments(tile));
-  for (std::size_t representative : sub.representatives)
-    moments->marginals.push_back(detail::measure_marginal(
-        tile.data().data() + representative * tile.image_floats(), tile.image_floats() / 3));
+  // Each representative's marginal without its relief's slope along its light, which each
+  // image takes along its own after the marginal is matched.
+  for (std::size_t k = 0; k < sub.representatives.size(); ++k) {
+    const float* image = tile.data().data() + sub.representatives[k] * tile.image_floats();
+    std::vector<float> flat(image, image + tile.image_floats());
+    detail::add_relief_slope((*relief)[k], features, light_of(tile, sub.representatives[k]),
+                             flat.data(), tile.width(), tile.height(), -1);
+    moments->marginals.push_back(detail::measure_marginal(flat.data(), tile.image_floats() / 3));
+  }
   const TextureModel fitted(method_name(kind), ModelFrame::of(tile), sub.labels, std::move(models),
-                            std::move(heights), s.seed, s.encoding, std::move(moments));
+                            std::move(heights), s.seed, s.encoding, std::move(moments),
+                            std::move(relief));
   // The model as its file holds it (parameters as 32-bit floats): memory and file agree.
   return read_texture_model(kind, fitted.payload(), fitted.file_flags(), "the fitted model");
 }

@@ -179,10 +179,12 @@ Header read_header(std::span<const std::uint8_t> bytes, const std::string& name)
   // which writes its predicted mean BRDF (flags 6) instead.
   // Flags 8 (the texture models' image moments) came with version 6 and went with version 7,
   // which writes them predicted (flags 24) instead.
-  const bool known = h.flags <= 1 || (h.flags == 2 && h.version == 4) ||
-                     (h.flags == (2 | kPredictedMeanBrdf) && h.version >= 5) ||
-                     (h.flags == kImageMoments && h.version == 6) ||
-                     (h.flags == (kImageMoments | kPredictedImageMoments) && h.version >= 7);
+  const bool known =
+      h.flags <= 1 || (h.flags == 2 && h.version == 4) ||
+      (h.flags == (2 | kPredictedMeanBrdf) && h.version >= 5) ||
+      (h.flags == kImageMoments && h.version == 6) ||
+      (h.flags == (kImageMoments | kPredictedImageMoments) && h.version >= 7) ||
+      (h.flags == (kImageMoments | kPredictedImageMoments | kReliefStructure) && h.version >= 8);
   if (!known)
     throw Error(Error::Kind::kFormat,
                 fmt::format("model file '{}' has unknown flags {:#x}", name, h.flags));

@@ -5,20 +5,25 @@
 //   1. The ni * nv images are clustered into c subspaces (k-means), one representative image
 //      and model each, a label per (light, view).
 //   2. The tile's range map (methods/range_map.hpp) is stored for its relief.
-//   3. Each representative is modelled (methods/colour_texture.hpp): 3D CAR on the RGB vector,
-//      or 2D CAR / GMRF on its Karhunen-Loeve bands, on each level of its Gaussian-Laplacian
-//      pyramid (methods/pyramid.hpp; --levels K, default 3 or what the tile holds).
+//   3. Each representative less its relief's structure (methods/relief_structure.hpp: the
+//      range map's shape and its slope along the representative's light, fitted by least
+//      squares) is modelled (methods/colour_texture.hpp): 3D CAR on the RGB vector, or 2D CAR
+//      / GMRF on its Karhunen-Loeve bands, on each level of its Gaussian-Laplacian pyramid
+//      (methods/pyramid.hpp; --levels K, default 3 or what the tile holds).
 //   4. Each image's mean and deviation per channel (methods/image_moments.hpp), a byte each.
 //   5. Any (light, view): the subspace of the nearest measured light and view, synthesised
-//      from the seed, times the range map's bump shading 1 + kRelief (s - 1), s = max(0, n.l) /
-//      mean_xy max(0, n.l) (the mean taken under the nearest measured light), then moved and
-//      scaled per channel to the nearest measured image's mean and deviation.
+//      from the seed with its relief's shape added and mapped onto its marginal, its relief's
+//      slope along the nearest measured light added, times the range map's bump shading
+//      1 + kRelief (s - 1), s = max(0, n.l) / mean_xy max(0, n.l) (the mean taken under the
+//      nearest measured light), then moved and scaled per channel to the nearest measured
+//      image's mean and deviation.
 // Payload (after the model file's method tag): the frame (methods/factors.hpp), u64 seed,
 // u8 pyramid levels K (1 in files written before the pyramid), u32 c, ni*nv u8 labels, the
 // range map as factors (1 row of W*H heights, f16 unless --precision says otherwise), then c
 // subspace models of K levels each, then (file flag kImageMoments, format version 6 on) the
 // image moments, predicted as the mixture's mean BRDF is from version 7 on (flag
-// kPredictedImageMoments; docs/FORMAT.md). A file without them synthesises as it always did.
+// kPredictedImageMoments; docs/FORMAT.md), then (flag kReliefStructure, version 8 on) each
+// subspace's relief gains. A file without them synthesises as it always did.
 #pragma once
 
 #include <cstdint>
@@ -35,6 +40,8 @@ namespace btfgmm {
 namespace detail {
 class ColourTexture;
 struct ImageMoments;
+struct ReliefStructure;
+struct ReliefFeatures;
 }  // namespace detail
 
 class TextureModel final : public Representation {
@@ -47,16 +54,20 @@ class TextureModel final : public Representation {
   // `method`: "3d-car", "2d-car" or "gmrf"; `labels` (ni*nv, light-major) index
   // `subspaces`; `heights` W*H (the range map).
   // `moments`: each image's (ni*nv) mean and deviation, or none (a file before version 6).
+  // `relief`: each subspace's relief structure (methods/relief_structure.hpp), added to its
+  // synthesis, or none (a file before version 8).
   TextureModel(std::string_view method, ModelFrame frame, std::vector<std::uint8_t> labels,
                std::vector<Subspace> subspaces, std::vector<float> heights, std::uint64_t seed,
                FactorEncoding range_encoding = FactorEncoding::kF16,
-               std::shared_ptr<const detail::ImageMoments> moments = nullptr);
+               std::shared_ptr<const detail::ImageMoments> moments = nullptr,
+               std::shared_ptr<const std::vector<detail::ReliefStructure>> relief = nullptr);
 
   std::string_view method() const override { return method_; }
   const ModelFrame& frame() const override { return frame_; }
   std::string size_text() const override;
   double size_order() const override { return double(parameter_count()); }
-  // Labels (ni*nv) + range map (W*H) + every subspace model's values + 6 per image moments.
+  // Labels (ni*nv) + range map (W*H) + every subspace model's values + 6 per image moments
+  // + each subspace's relief gains.
   std::uint64_t parameter_count() const override;
 
   void predict(std::span<const Query> queries, std::span<float> rgb) const override;
@@ -70,7 +81,7 @@ class TextureModel final : public Representation {
   FactorEncoding encoding() const override { return range_encoding_; }
   bool synthesises() const override { return true; }
   // kImageMoments | kPredictedImageMoments where they are stored (a version-6 file's are
-  // written again predicted, the same values).
+  // written again predicted, the same values), | kReliefStructure where the gains are.
   std::uint32_t file_flags() const override;
   void set_synthesis_seed(std::uint64_t seed, std::string_view option) override;
 
@@ -105,6 +116,9 @@ class TextureModel final : public Representation {
   FactorEncoding range_encoding_;
   std::vector<std::vector<float>> tiles_;
   std::shared_ptr<const detail::ImageMoments> moments_;
+  std::shared_ptr<const std::vector<detail::ReliefStructure>> relief_;
+  // The range map's (relief_features), where relief_.
+  std::shared_ptr<const detail::ReliefFeatures> relief_features_;
   std::vector<float> shaded_moments_;
   // decode's syntheses at the last size asked, each made when first needed (decode is called
   // a light at a time by the command): guarded by cache_lock_.
@@ -114,6 +128,13 @@ class TextureModel final : public Representation {
     std::vector<std::vector<float>> fields;
   };
   const std::vector<float>& synthesised(std::size_t subspace, int width, int height) const;
+  // Subspace k's synthesis at width x height from seed_: its model's field, its relief's
+  // shape added, mapped onto its marginal.
+  std::vector<float> synthesise_subspace(std::size_t k, int width, int height) const;
+  // Subspace k's synthesis `s` (width x height) under `light`: its relief's slope along the
+  // nearest measured light added (where the model has a relief), times the bump shading.
+  void light_synthesis(std::size_t k, const Direction& light, std::span<const float> s, int width,
+                       int height, float* out) const;
   mutable std::mutex cache_lock_;
   mutable Synthesised cache_;
 };

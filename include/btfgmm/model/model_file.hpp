@@ -4,7 +4,7 @@
 // files hold a Gaussian mixture and are read as such. Versions 1 and 2 have no provenance.
 // Version 4 adds the mixture's compact encoding (flags 2); version 5 predicts its mean BRDF
 // (flags 6); version 6 adds the texture models' image moments (flags 8); version 7 predicts
-// them (flags 24).
+// them (flags 24); version 8 adds their relief structure (flags 56).
 #pragma once
 
 #include <cstdint>
@@ -19,7 +19,7 @@
 
 namespace btfgmm {
 
-constexpr std::uint32_t kModelFormatVersion = 7;
+constexpr std::uint32_t kModelFormatVersion = 8;
 // The mixture's flags: its Precision, and with the compact encoding (version 5 on) this bit,
 // the mean BRDF's codes predicted from their neighbours (docs/FORMAT.md).
 constexpr std::uint32_t kPredictedMeanBrdf = 4;
@@ -29,6 +29,8 @@ constexpr std::uint32_t kImageMoments = 8;
 // With kImageMoments (version 7 on): the moments' codes predicted from their neighbours on the
 // light x view grid, as the mixture's mean BRDF is (version 6 stored each less the one before).
 constexpr std::uint32_t kPredictedImageMoments = 16;
+// With both (version 8 on): each subspace's relief structure stored, added to its synthesis.
+constexpr std::uint32_t kReliefStructure = 32;
 // The flags a mixture's file is written with.
 std::uint32_t mixture_file_flags(const BtfModel& model);
 // The Gaussian mixture's method tag.
