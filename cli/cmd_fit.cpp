@@ -54,6 +54,7 @@ btfgmm::FitOptions library_options(const FitArguments& o) {
   f.objective = o.objective;
   f.refine_steps = o.refine_steps;
   f.refine_seconds = o.refine_seconds;
+  f.refine_epochs = o.refine_epochs;
   return f;
 }
 
@@ -219,6 +220,36 @@ void add_budget_and_run_options(CLI::App& app, FitArguments& a) {
               "Nothing on stderr but errors (and the notice of an interrupted fit)");
 }
 
+// The mixture's objective and its refinement's bounds.
+void add_refinement_options(CLI::App& f, FitArguments& fit) {
+  f.add_option("--objective", fit.objective,
+               methods_of("objective") +
+                   ": prediction (default: EM, then the mixture refined for the prediction's "
+                   "error, Eq. 8-11: the colour means by least squares, gradient steps on every "
+                   "parameter, the colour means again) or likelihood (the paper's EM alone, "
+                   "exactly)");
+  f.add_option("--refine-steps", fit.refine_steps,
+               methods_of("refine_steps") +
+                   ", --objective prediction: exactly this many Adam steps of the refinement "
+                   "(default: until the error on the held-out samples stops falling, "
+                   "docs/ALGORITHM.md)")
+      ->check(table_range<int>("refine_steps"));
+  f.add_option("--refine-seconds", fit.refine_seconds,
+               methods_of("refine_seconds") +
+                   fmt::format(", --objective prediction: the most seconds the refinement "
+                               "takes (default M / {:g}: {:g} at M = 600); the lowest held-out "
+                               "error met is kept",
+                               1.0 / btfgmm::kDefaultRefineSecondsPerComponent,
+                               btfgmm::default_refine_seconds(600)))
+      ->check(table_range<double>("refine_seconds"));
+  f.add_option("--refine-epochs", fit.refine_epochs,
+               methods_of("refine_epochs") +
+                   ", --objective prediction: the most passes over the tile's samples the "
+                   "refinement takes, and no bound on its time unless --refine-seconds gives "
+                   "one: the same model on any machine at any load (default: bounded in time)")
+      ->check(table_range<int>("refine_epochs"));
+}
+
 }  // namespace
 
 void register_fit_command(CLI::App& app, Commands& commands) {
@@ -259,26 +290,7 @@ void register_fit_command(CLI::App& app, Commands& commands) {
       ->check(table_range<double>("epsilon"))
       ->capture_default_str();
   f->add_option("--seed", fit->seed, "Seed of the random initialisation")->capture_default_str();
-  f->add_option("--objective", fit->objective,
-                methods_of("objective") +
-                    ": prediction (default: EM, then the mixture refined for the prediction's "
-                    "error, Eq. 8-11: the colour means by least squares, gradient steps on every "
-                    "parameter, the colour means again) or likelihood (the paper's EM alone, "
-                    "exactly)");
-  f->add_option("--refine-steps", fit->refine_steps,
-                methods_of("refine_steps") +
-                    ", --objective prediction: exactly this many Adam steps of the refinement "
-                    "(default: until the error on the held-out samples stops falling, "
-                    "docs/ALGORITHM.md)")
-      ->check(table_range<int>("refine_steps"));
-  f->add_option("--refine-seconds", fit->refine_seconds,
-                methods_of("refine_seconds") +
-                    fmt::format(", --objective prediction: the most seconds the refinement "
-                                "takes (default M / {:g}: {:g} at M = 600); the lowest held-out "
-                                "error met is kept",
-                                1.0 / btfgmm::kDefaultRefineSecondsPerComponent,
-                                btfgmm::default_refine_seconds(600)))
-      ->check(table_range<double>("refine_seconds"));
+  add_refinement_options(*f, *fit);
   f->add_option("--threads", fit->threads,
                 "Threads (0: all cores; the model does not depend "
                 "on it)")

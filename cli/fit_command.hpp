@@ -22,6 +22,7 @@ struct FitArguments {
   int levels = 0;                                        // 0: the method's default
   int refine_steps = 0;                                  // 0: until converged
   double refine_seconds = 0.0;                           // 0: the default bound
+  int refine_epochs = 0;                                 // 0: bounded in time
   double epsilon = 0.0;
   std::uint64_t seed = 1;
   int threads = 0;

@@ -84,7 +84,7 @@ btfgmm::FitRequest fit_request(const FitArguments& o) {
   if (r.resume && o.given.count("--epsilon")) r.config.em.epsilon = o.epsilon;
   // Resumed or continued: checked against the objective (a continuation's is its model's).
   if (o.given.count("--refine-steps")) btfgmm::set_refine_steps(r.config, o.refine_steps);
-  if (o.refine_seconds > 0) r.config.refinement_seconds = o.refine_seconds;
+  btfgmm::set_refine_bounds(r.config, o.refine_seconds, o.refine_epochs);
   r.checkpoint_every = o.checkpoint_every;
   r.config.em.threads = o.threads;
   r.config.em.stop = &g_stop;
@@ -123,18 +123,32 @@ void print_refinement(const btfgmm::GradientProgress& p, double& printed_at) {
   printed_at = p.elapsed;
   const std::string bound =
       p.steps > 0 ? fmt::format("step {}/{}", p.step, p.steps) : fmt::format("step {}", p.step);
+  const std::string most = p.seconds >= btfgmm::kMaxRefineSeconds
+                               ? fmt::format("{} epochs", p.max_epochs)
+                               : human_seconds(p.seconds);
   fmt::print(stderr,
              "refining for the prediction: epoch {:>3} {:<12} validation RMSE {:.3f} levels "
              "(lowest {:.3f})  training RMSE {}  {} of at most {}\n",
              p.epoch, bound, p.validation_rmse, p.best_validation_rmse,
              p.step > 0 ? fmt::format("{:.3f}", p.training_rmse) : std::string("(no step yet)"),
-             human_seconds(p.elapsed), human_seconds(p.seconds));
+             human_seconds(p.elapsed), most);
 }
 
 // What the fit will take, said before EM: its iterations at the time one takes (timed on a
 // few lights), then the refinement's bound.
 void print_plan(const btfgmm::FitPlan& p) {
   const double em = p.em_iteration_seconds * double(p.iterations);
+  if (p.refinement_seconds > 0 && p.refinement_epochs > 0 &&
+      p.refinement_seconds >= btfgmm::kMaxRefineSeconds) {
+    fmt::print(stderr,
+               "plan: EM, at most {} iterations of M = {} at about {} each (timed on a few "
+               "lights): about {}; then the refinement for the prediction, at most {} epochs "
+               "(--refine-epochs; each a pass over the tile's samples, several EM iterations' "
+               "time)\n",
+               p.iterations, p.components, human_seconds(p.em_iteration_seconds), human_seconds(em),
+               p.refinement_epochs);
+    return;
+  }
   const std::string refinement =
       p.refinement_seconds > 0
           ? fmt::format("; then the refinement for the prediction, at most {} (--refine-seconds)",
@@ -192,9 +206,10 @@ void print_written(const std::string& out, const btfgmm::FitOutcome& fit, const 
                "{:.3f} levels after EM, {:.3f} after the colour refit, {:.3f} in the model (on "
                "{} held-out samples); training RMSE {:.3f}\n",
                r->steps, r->epochs,
-               r->timed_out ? ", the time bound"
-               : r->stopped ? ", stopped"
-                            : "",
+               r->timed_out     ? ", the time bound"
+               : r->stopped     ? ", stopped"
+               : r->epoch_bound ? ", the epoch bound"
+                                : "",
                human_seconds(r->seconds), btfgmm::prediction_rmse(r->error_em, r->samples),
                btfgmm::prediction_rmse(r->error_colour, r->samples),
                btfgmm::prediction_rmse(r->error_final, r->samples), r->samples, r->training_rmse);

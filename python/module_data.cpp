@@ -160,7 +160,7 @@ Model fit(const py::object& data, const std::string& method, const py::object& t
           std::size_t components, std::size_t clusters, std::size_t degree, int iterations,
           std::optional<double> epsilon, std::uint64_t seed, int threads,
           std::optional<std::string> precision, std::optional<std::string> objective, int levels,
-          int refine_steps, double refine_seconds, const py::object& progress) {
+          int refine_steps, double refine_seconds, int refine_epochs, const py::object& progress) {
   const DataArg d = data_arg(data, "fit");
   if (d.tile && !tile.is_none())
     throw Error(Error::Kind::kArgument,
@@ -180,6 +180,7 @@ Model fit(const py::object& data, const std::string& method, const py::object& t
   o.levels = levels;
   o.refine_steps = refine_steps;
   o.refine_seconds = refine_seconds;
+  o.refine_epochs = refine_epochs;
   const std::string text = tile_text(tile);
   FitWatch watch(progress);
   FitProgress p;
@@ -244,7 +245,9 @@ const char* fit_doc() {
                                                                            .epsilon = 0.0,
                                                                            .precision = "-",
                                                                            .objective = "-",
-                                                                           .refine_steps = 1});
+                                                                           .refine_steps = 1,
+                                                                           .refine_seconds = 1,
+                                                                           .refine_epochs = 1});
     for (const FitOptionRule& rule : fit_option_rules())
       if (rule.methods != "all" &&
           std::find(keywords.begin(), keywords.end(), rule.field) != keywords.end())
@@ -263,7 +266,8 @@ void bind_fit(py::module_& m) {
         py::arg("degree") = 0, py::arg("iterations") = 0, py::arg("epsilon") = py::none(),
         py::arg("seed") = 1, py::arg("threads") = 0, py::arg("precision") = py::none(),
         py::arg("objective") = py::none(), py::arg("levels") = 0, py::arg("refine_steps") = 0,
-        py::arg("refine_seconds") = 0.0, py::arg("progress") = py::none(), fit_doc());
+        py::arg("refine_seconds") = 0.0, py::arg("refine_epochs") = 0,
+        py::arg("progress") = py::none(), fit_doc());
   m.def("compare", &compare, py::arg("data"), py::arg("model"), py::kw_only(),
         py::arg("force") = false,
         "Measures a model against the BTF it was fitted to (a path, or a Btf from read_btf: "

@@ -151,6 +151,14 @@ def test_fit_takes_the_objective_and_the_pyramid_levels(work, tmp_path):
     assert paper.provenance["settings"]["objective"] == "likelihood"
     with pytest.raises(btfgmm.Error, match="objective"):
         btfgmm.fit(work["btf"], tile=(0, 0, 6, 6), components=5, objective="likelyhood")
+    # A refinement bounded in epochs, not time: recorded, and ended by that bound.
+    bounded = btfgmm.fit(work["btf"], tile=(0, 0, 6, 6), components=5, iterations=3, seed=2,
+                         refine_epochs=2)
+    assert bounded.provenance["settings"]["refine epochs"] == "2"
+    assert "in 2 epochs (epoch bound)" in bounded.provenance["settings"]["refinement"]
+    with pytest.raises(ValueError, match="refine_epochs applies to the objective prediction"):
+        btfgmm.fit(work["btf"], tile=(0, 0, 6, 6), components=5, objective="likelihood",
+                   refine_epochs=2)
     car = btfgmm.fit(work["btf"], method="3d-car", clusters=2, levels=1)
     assert car.provenance["settings"]["levels"] == "1"
     with pytest.raises(btfgmm.Error, match="levels 3"):

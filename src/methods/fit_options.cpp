@@ -62,6 +62,11 @@ constexpr FitOptionRule kRules[] = {
      .routes = kMixtureRoutes,
      .min = 1,
      .max = kMaxRefineSeconds},
+    {.field = "refine_epochs",
+     .methods = "gm",
+     .routes = kMixtureRoutes,
+     .min = 1,
+     .max = kMaxRefineEpochs},
     {.field = "epsilon", .methods = "gm", .routes = kMixtureRoutes, .min = 0, .max = 1},
     {.field = "iterations",
      .methods = "gm lpca plm-rf",
@@ -219,6 +224,7 @@ std::vector<std::string_view> given_fields(const FitOptions& o) {
       {"objective", !o.objective.empty()},
       {"refine_steps", o.refine_steps != 0},
       {"refine_seconds", o.refine_seconds != 0},
+      {"refine_epochs", o.refine_epochs != 0},
   };
   std::vector<std::string_view> out;
   for (const auto& [field, given] : set)
@@ -263,6 +269,26 @@ void set_refine_steps(FitConfig& config, int steps) {
   config.refinement_steps = steps;
 }
 
+void set_refine_bounds(FitConfig& config, double seconds, int epochs) {
+  const std::pair<std::string_view, bool> given[] = {{"refine_seconds", seconds > 0},
+                                                     {"refine_epochs", epochs > 0}};
+  for (const auto& [field, set] : given) {
+    const FitOptionRule& rule = fit_option_rule(field);
+    const double value = field == "refine_epochs" ? double(epochs) : seconds;
+    if (set && (value < rule.min || value > rule.max))
+      throw Error(
+          Error::Kind::kArgument,
+          fmt::format("{} {:g}: give {:g} to {:g}", option_name(field), value, rule.min, rule.max));
+    if (set && config.objective != FitObjective::kPrediction)
+      throw Error(Error::Kind::kArgument,
+                  fmt::format("{} applies to the objective prediction only (the paper's EM, {} "
+                              "likelihood, refines nothing); leave one of them out",
+                              option_name(field), option_name("objective")));
+  }
+  if (seconds > 0) config.refinement_seconds = seconds;
+  if (epochs > 0) config.refinement_epochs = epochs;
+}
+
 FitRequest mixture_fit_request(const FitOptions& o, const std::string& input,
                                const std::string& output) {
   if (o.clusters != 0 || o.degree != 0)
@@ -285,7 +311,7 @@ FitRequest mixture_fit_request(const FitOptions& o, const std::string& input,
   r.config.objective =
       parse_objective(o.objective.empty() ? "prediction" : o.objective, option_name("objective"));
   set_refine_steps(r.config, o.refine_steps);
-  if (o.refine_seconds > 0) r.config.refinement_seconds = o.refine_seconds;
+  set_refine_bounds(r.config, o.refine_seconds, o.refine_epochs);
   r.precision = mixture_precision(o.precision);
   return r;
 }

@@ -99,6 +99,8 @@ std::vector<std::pair<std::string, std::string>> settings_record(const FitReques
     s.emplace_back("refine steps", fmt::to_string(r.config.refinement_steps));
   if (r.config.refinement_seconds > 0)  // --refine-seconds, for --continue alike
     s.emplace_back("refine seconds", fmt::format("{:g}", r.config.refinement_seconds));
+  if (r.config.refinement_epochs > 0)  // --refine-epochs, for --continue alike
+    s.emplace_back("refine epochs", fmt::to_string(r.config.refinement_epochs));
   return s;
 }
 
@@ -222,7 +224,10 @@ void record_provenance(const FitRequest& r, const FitCheckpoint& job, DataFinger
 // after EM, 8.02 refined, training RMSE 7.95 (levels; validation: 205031 samples held out,
 // 1 in 20; training: 3895594 samples in minibatches of 64928)".
 std::pair<std::string, std::string> refinement_record(const PredictionRefinement& r) {
-  const char* end = r.stopped ? " (stopped)" : r.timed_out ? " (time bound)" : "";
+  const char* end = r.stopped       ? " (stopped)"
+                    : r.timed_out   ? " (time bound)"
+                    : r.epoch_bound ? " (epoch bound)"
+                                    : "";
   return {"refinement",
           fmt::format("{} Adam steps in {} epochs{}; validation RMSE {:.2f} after EM, {:.2f} "
                       "refined, training RMSE {:.2f} (levels; validation: {} samples held out, "
@@ -266,6 +271,7 @@ BtfModel fit_samples(const SampleSet& samples, const FitTile& tile, const FitCon
     GradientConfig gradient;
     gradient.steps = config.refinement_steps;
     gradient.seconds = refinement_bound(config);
+    if (config.refinement_epochs > 0) gradient.max_epochs = config.refinement_epochs;
     gradient.seed = config.seed;
     gradient.progress = refinement;
     gradient.stop = config.em.stop;
@@ -326,6 +332,13 @@ int recorded_refine_steps(const Provenance& p) {
   return 0;
 }
 
+// The --refine-epochs a model's provenance records (0, the default, where none).
+int recorded_refine_epochs(const Provenance& p) {
+  for (const auto& [name, value] : p.fit.settings)
+    if (name == "refine epochs") return std::clamp(std::atoi(value.c_str()), 0, kMaxRefineEpochs);
+  return 0;
+}
+
 // The --refine-seconds a model's provenance records (0, the default, where none).
 double recorded_refine_seconds(const Provenance& p) {
   for (const auto& [name, value] : p.fit.settings)
@@ -368,6 +381,7 @@ FitRequest continue_request(const fs::path& path, const std::string& input, int 
   r.config.objective = recorded_objective(p);
   r.config.refinement_steps = recorded_refine_steps(p);
   r.config.refinement_seconds = recorded_refine_seconds(p);
+  r.config.refinement_epochs = recorded_refine_epochs(p);
   r.precision = m.precision;
   r.output = output;
   FitCheckpoint k = checkpoint_of(r, Tile{}, 0);
@@ -390,8 +404,9 @@ FitRequest continue_request(const fs::path& path, const std::string& input, int 
 
 double refinement_bound(const FitConfig& config) {
   if (config.objective != FitObjective::kPrediction) return 0.0;
-  return config.refinement_seconds > 0 ? config.refinement_seconds
-                                       : default_refine_seconds(config.components);
+  if (config.refinement_seconds > 0) return config.refinement_seconds;
+  return config.refinement_epochs > 0 ? kMaxRefineSeconds
+                                      : default_refine_seconds(config.components);
 }
 
 namespace {
@@ -406,7 +421,8 @@ FitPlan plan_fit(const SampleSet& samples, const FitRequest& request) {
           .iterations = std::max(0, config.em.max_iterations - done),
           .em_iteration_seconds =
               estimate_em_iteration_seconds(samples, config.components, config.em.threads),
-          .refinement_seconds = refinement_bound(config)};
+          .refinement_seconds = refinement_bound(config),
+          .refinement_epochs = config.refinement_epochs};
 }
 
 }  // namespace

@@ -462,7 +462,7 @@ void report(const GradientConfig& config, const Epochs& at, const Convergence& r
   config.progress({out.epochs, out.steps, config.steps, rmse,
                    prediction_rmse(out.error_final, out.samples),
                    prediction_rmse(at.train_error, at.train_samples), at.elapsed(), config.seconds,
-                   std::min(fraction, 1.0)});
+                   std::min(fraction, 1.0), config.max_epochs});
 }
 
 // Validation after a step: the lowest error's mixture kept in `best`; the progress reported.
@@ -544,6 +544,7 @@ void gradient_epochs(const SampleSet& samples, ProductMixture& mix, int threads,
       if (done && !due) validate(pass, mix, config, at, rule, best, out);
     }
   }
+  out.epoch_bound = !done;  // the loop ran out of epochs
   out.training_rmse = prediction_rmse(at.train_error, at.train_samples);
   out.weighed = at.train_samples > 0 ? at.weighed / double(at.train_samples) : 1.0;
   out.gradient_seconds = at.elapsed();

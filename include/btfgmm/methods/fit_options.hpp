@@ -38,6 +38,7 @@ struct FitOptions {
   std::string objective;  // gm: "prediction" (default) or "likelihood" (the paper's EM alone)
   int refine_steps = 0;   // gm, prediction: the refinement's Adam steps (0: its stopping rule)
   double refine_seconds = 0.0;  // gm, prediction: its bound on time (0: default_refine_seconds)
+  int refine_epochs = 0;  // gm, prediction: its bound in passes over the data (0: none but 1000)
 };
 
 // What a fit request does: a new fit, an interrupted mixture's fit resumed from its
@@ -81,6 +82,10 @@ void check_fit_options(std::span<const std::string_view> given, std::string_view
 // config.refinement_steps = steps (0: as many as the fit affords). Throws Error(kArgument)
 // for steps outside 0..kMaxRefineSteps, and for steps with an objective other than kPrediction.
 void set_refine_steps(FitConfig& config, int steps);
+// The refinement's bounds where given (> 0): config.refinement_seconds = seconds,
+// config.refinement_epochs = epochs. Throws Error(kArgument) for either given with an
+// objective other than kPrediction (the paper's EM refines nothing) or outside its range.
+void set_refine_bounds(FitConfig& config, double seconds, int epochs);
 
 // The mixture's fit job from `input` to `output` (the tile, checkpoints and the stop flag are
 // the caller's to set): M = 600, 40 iterations, the prediction objective and the compact file

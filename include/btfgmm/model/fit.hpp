@@ -33,8 +33,12 @@ struct FitConfig {
   // (GradientConfig).
   int refinement_steps = 0;
   // kPrediction: the refinement's bound on its time, seconds (GradientConfig::seconds); 0:
-  // default_refine_seconds(components).
+  // default_refine_seconds(components), or none (kMaxRefineSeconds) with refinement_epochs.
   double refinement_seconds = 0.0;
+  // kPrediction: the refinement's epochs at most (GradientConfig::max_epochs); 0:
+  // kMaxRefineEpochs. Bounded in passes over the data rather than in time, a fit gives the
+  // same model on any machine at any load.
+  int refinement_epochs = 0;
 };
 
 // The mixture's fit of `components` components and `iterations` EM iterations (0: the
@@ -123,10 +127,12 @@ struct FitPlan {
   int iterations = 0;                 // EM iterations at most, those a resume has run aside
   double em_iteration_seconds = 0.0;  // about; EM's later iterations tend to take less
   double refinement_seconds = 0.0;    // at most (0: no refinement, the likelihood objective)
+  int refinement_epochs = 0;          // at most, where the fit asked for a bound in epochs
 };
 
 // The refinement's bound on its time: config.refinement_seconds, or by default
-// default_refine_seconds(components); 0 with the objective kLikelihood (no refinement).
+// default_refine_seconds(components), or kMaxRefineSeconds where config.refinement_epochs
+// bounds it instead; 0 with the objective kLikelihood (no refinement).
 double refinement_bound(const FitConfig& config);
 
 // What run_fit tells as it goes (the library prints nothing).

@@ -126,6 +126,9 @@ std::pair<double, std::size_t> validation_error(const SampleSet& samples, const 
 constexpr std::size_t kValidationEvery = 20;
 bool validation_sample(std::size_t pixel, std::size_t pair, std::size_t pairs);
 
+// The most epochs a refinement takes (GradientConfig::max_epochs; fit --refine-epochs).
+constexpr int kMaxRefineEpochs = 1000;
+
 // Where the refinement is, after a validation: `step` Adam steps in `epoch` epochs (passes
 // over the training samples, from 1); the validation RMSE (model units: levels) of the
 // parameters just reached and the lowest met, the training RMSE over the last epoch's
@@ -137,6 +140,7 @@ struct GradientProgress {
   // How far along, 0 before the first step to 1 after the last: of the steps asked for, or the
   // most of the time bound's, the epochs' and the stopping rule's halvings' shares.
   double fraction = 0.0;
+  int max_epochs = kMaxRefineEpochs;  // GradientConfig::max_epochs
 };
 using GradientCallback = std::function<void(const GradientProgress&)>;
 
@@ -165,7 +169,7 @@ struct GradientConfig {
   bool gradient = true;
   int steps = 0;
   double seconds = default_refine_seconds(600);
-  int max_epochs = 1000;
+  int max_epochs = kMaxRefineEpochs;
   int patience = 4;
   int plateaus = 3;
   double min_gain = 1e-3;
@@ -199,6 +203,7 @@ struct PredictionRefinement {
   int epochs = 0;              // epochs begun
   bool stopped = false;        // ended early by GradientConfig::stop
   bool timed_out = false;      // ended by GradientConfig::seconds
+  bool epoch_bound = false;    // ended by GradientConfig::max_epochs
   std::size_t samples = 0;     // validation samples, on which the errors are
   std::size_t training_samples = 0;
   std::size_t batch_samples = 0;      // training samples of a minibatch (about)
