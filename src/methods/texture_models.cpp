@@ -109,24 +109,29 @@ void TextureModel::measure_shaded_tiles() {
   shaded_moments_.assign(subspaces_.size() * nl * 6, 0.0f);
 #pragma omp parallel for schedule(dynamic, 1)
   for (std::ptrdiff_t l = 0; l < std::ptrdiff_t(nl); ++l) {
+    const Lighting lighting = lighting_of(frame_.lights[std::size_t(l)]);
     std::vector<float> img(pixels * 3);
     for (std::size_t k = 0; k < subspaces_.size(); ++k) {
-      light_synthesis(k, frame_.lights[std::size_t(l)], tiles_[k], frame_.width, frame_.height,
-                      img.data());
+      light_synthesis(k, lighting, tiles_[k], frame_.width, frame_.height, img.data());
       float* m = &shaded_moments_[(k * nl + std::size_t(l)) * 6];
       detail::measure_moments(img.data(), pixels, m, m + 3);
     }
   }
 }
 
-void TextureModel::light_synthesis(std::size_t k, const Direction& light, std::span<const float> s,
-                                   int width, int height, float* out) const {
+TextureModel::Lighting TextureModel::lighting_of(const Direction& light) const {
+  return {.shade = shading(light),
+          .measured = to_vector(frame_.lights[nearest(frame_.lights, light)])};
+}
+
+void TextureModel::light_synthesis(std::size_t k, const Lighting& lighting,
+                                   std::span<const float> s, int width, int height,
+                                   float* out) const {
   std::copy(s.begin(), s.end(), out);
   if (relief_)
-    detail::add_relief_slope((*relief_)[k], *relief_features_,
-                             to_vector(frame_.lights[nearest(frame_.lights, light)]), out, width,
+    detail::add_relief_slope((*relief_)[k], *relief_features_, lighting.measured, out, width,
                              height);
-  const std::vector<float> shade = shading(light);
+  const std::vector<float>& shade = lighting.shade;
   const int tw = frame_.width, th = frame_.height;
   for (int y = 0; y < height; ++y)
     for (int x = 0; x < width; ++x) {
@@ -235,10 +240,11 @@ Btf TextureModel::decode(const DirectionSet& lights, const DirectionSet& views, 
 #pragma omp parallel for schedule(dynamic, 1)
   for (std::ptrdiff_t li = 0; li < std::ptrdiff_t(lights.size()); ++li) {
     const Direction& light = lights[std::size_t(li)];
+    const Lighting lighting = lighting_of(light);
     for (std::size_t vi = 0; vi < views.size(); ++vi) {
       const std::size_t k = label_of(light, views[vi]);
       float* img = out.image(std::size_t(li), vi);
-      light_synthesis(k, light, *synth[k], width, height, img);
+      light_synthesis(k, lighting, *synth[k], width, height, img);
       if (moments_) {
         const std::size_t image = image_of(light, views[vi]);
         const std::size_t n = std::size_t(width) * std::size_t(height);

@@ -131,9 +131,16 @@ class TextureModel final : public Representation {
   // Subspace k's synthesis at width x height from seed_: its model's field, its relief's
   // shape added, mapped onto its marginal.
   std::vector<float> synthesise_subspace(std::size_t k, int width, int height) const;
-  // Subspace k's synthesis `s` (width x height) under `light`: its relief's slope along the
+  // What a light's images share: the bump shading of the range map under it (shading) and
+  // the nearest measured light, along which the relief's slope is taken.
+  struct Lighting {
+    std::vector<float> shade;
+    Vec3 measured;
+  };
+  Lighting lighting_of(const Direction& light) const;
+  // Subspace k's synthesis `s` (width x height) under a light: its relief's slope along the
   // nearest measured light added (where the model has a relief), times the bump shading.
-  void light_synthesis(std::size_t k, const Direction& light, std::span<const float> s, int width,
+  void light_synthesis(std::size_t k, const Lighting& lighting, std::span<const float> s, int width,
                        int height, float* out) const;
   mutable std::mutex cache_lock_;
   mutable Synthesised cache_;
