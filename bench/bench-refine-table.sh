@@ -7,15 +7,16 @@
 #
 #   bench/bench-refine-table.sh --out FILE [--before PATH] [--after PATH] [--work DIR]
 #                               [--tiles "knit25 corduroy25 ..."] [--components "300 600"]
-#                               [--iterations N]
+#                               [--iterations N] [--builds "after before"]
 #
 # A tile is MATERIAL followed by its size (btfgmm generate --material MATERIAL --size S,
-# seed 1, ubo81 directions), generated once in the work folder.
+# seed 1, ubo81 directions), generated once in the work folder. --builds "before" fits with the
+# older build alone (this one still generates the tiles and measures every model).
 set -euo pipefail
 
 after=${BTFGMM:-build/btfgmm} before='' work='' out=''
 tiles="knit25 corduroy25 leather25 knit32 corduroy32 leather32"
-components="300 600 1200 2400" iterations=40
+components="300 600 1200 2400" iterations=40 builds="after before"
 while [ $# -gt 0 ]; do
   case "$1" in
     --before) before=$2; shift 2 ;;
@@ -25,7 +26,8 @@ while [ $# -gt 0 ]; do
     --tiles) tiles=$2; shift 2 ;;
     --components) components=$2; shift 2 ;;
     --iterations) iterations=$2; shift 2 ;;
-    -h | --help) sed -n '2,13p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
+    --builds) builds=$2; shift 2 ;;
+    -h | --help) sed -n '2,14p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
     *) echo "bench-refine-table: unknown option '$1' (see --help)" >&2; exit 2 ;;
   esac
 done
@@ -39,7 +41,7 @@ for tile in $tiles; do
   material=${tile%%[0-9]*} size=${tile#"$material"}
   [ -d "$work/$tile" ] || "$after" generate --material "$material" --size "$size" -o "$work/$tile" -q
   for m in $components; do
-    for build in after before; do
+    for build in $builds; do
       exe=$after
       [ "$build" = before ] && exe=$before
       [ -n "$exe" ] || continue

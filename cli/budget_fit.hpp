@@ -13,6 +13,8 @@ struct BudgetFitArguments {
   double ratio = 0.0;        // 0: budget given
   std::uint64_t seed = 1;
   int threads = 0, iterations = 0;
+  double refine_seconds = 0.0;  // 0: the mixture's refinement bounded by its default time
+  int refine_epochs = 0;
   bool overwrite = false, quiet = false;
 };
 

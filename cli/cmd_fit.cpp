@@ -128,6 +128,8 @@ void run_fit_within_budget(const FitArguments& o) {
                   .seed = o.seed,
                   .threads = o.threads,
                   .iterations = o.iterations,
+                  .refine_seconds = o.refine_seconds,
+                  .refine_epochs = o.refine_epochs,
                   .overwrite = o.overwrite,
                   .quiet = o.quiet});
 }
@@ -246,7 +248,8 @@ void add_refinement_options(CLI::App& f, FitArguments& fit) {
                methods_of("refine_epochs") +
                    ", --objective prediction: the most passes over the tile's samples the "
                    "refinement takes, and no bound on its time unless --refine-seconds gives "
-                   "one: the same model on any machine at any load (default: bounded in time)")
+                   "one: the same model on any machine at any load (default: bounded in time); "
+                   "with --budget, of each mixture it fits")
       ->check(table_range<int>("refine_epochs"));
 }
 

@@ -32,6 +32,8 @@ struct SweepArguments {
   std::string btf, tile, out, methods, precision;
   std::vector<std::size_t> components;  // sizes instead of the ladders
   int iterations = 0, threads = 0;
+  double refine_seconds = 0.0;  // 0: the refinement's default bound in time
+  int refine_epochs = 0;        // 0: bounded in time
   std::uint64_t seed = 1;
   bool keep_models = false, overwrite = false, quiet = false, json = false;
   bool methods_given = false;  // --methods was given (perhaps empty)
@@ -77,6 +79,8 @@ SweepRequest sweep_request(const SweepArguments& o) {
   r.threads = o.threads;
   r.seed = o.seed;
   r.iterations = o.iterations;
+  r.refine_seconds = o.refine_seconds;
+  r.refine_epochs = o.refine_epochs;
   if (!o.components.empty()) {
     std::vector<MethodSettings> sizes;
     for (std::size_t c : o.components) {
@@ -358,6 +362,18 @@ void register_sweep_command(CLI::App& app, Commands& commands) {
                 "Levenberg-Marquardt steps; the other methods fit as usual, named in the table); "
                 "default: each method's")
       ->check(CLI::Range(1, 100000));
+  const FitOptionRule& seconds = fit_option_rule("refine_seconds");
+  const FitOptionRule& epochs = fit_option_rule("refine_epochs");
+  c->add_option("--refine-seconds", opt->refine_seconds,
+                "The most seconds each Gaussian mixture's refinement for the prediction takes, "
+                "as fit --refine-seconds (default: M / 6)")
+      ->check(CLI::Range(seconds.min, seconds.max));
+  c->add_option("--refine-epochs", opt->refine_epochs,
+                "The most passes over the tile's samples each Gaussian mixture's refinement "
+                "takes, and no bound on its time unless --refine-seconds gives one, as fit "
+                "--refine-epochs: the same models, and the same table, on any machine at any "
+                "load (default: bounded in time)")
+      ->check(CLI::Range(int(epochs.min), int(epochs.max)));
   c->add_option("--seed", opt->seed, "Seed of every fit's random start")->capture_default_str();
   c->add_option("--threads", opt->threads, "Threads (0: all cores)")
       ->check(CLI::Range(0, 1024))

@@ -69,6 +69,8 @@ void run_budget_fit(const BudgetFitArguments& o) {
   r.seed = o.seed;
   r.threads = o.threads;
   r.iterations = o.iterations;
+  r.refine_seconds = o.refine_seconds;
+  r.refine_epochs = o.refine_epochs;
   r.option_spelling = command_line_option;
   if (!o.quiet) {
     fmt::print(stderr, "budget {} bytes for the {}x{} tile ({:.0f} data bytes, 1:{:.1f})\n",

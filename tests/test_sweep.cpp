@@ -225,6 +225,43 @@ TEST(Sweep, ChecksTheRequestAndStopsOnTheFlag) {
   EXPECT_EQ(settings_text(MethodSettings{}), "the method's defaults");
 }
 
+// The refinement's bounds apply to the mixture alone: in epochs its models are the same with
+// any number of threads (so on any machine at any load), and the settings and provenance
+// say so. Bounds out of range, or with no mixture swept, are refused before any fit.
+TEST(Sweep, RefinementBoundsApplyToTheMixtureAndMakeItsModelsReproducible) {
+  const Btf tile = tiny_tile();
+  SweepRequest r;
+  r.methods = {"gm", "pca-btf"};
+  r.ladders["gm"] = {components(4)};
+  r.ladders["pca-btf"] = {components(2)};
+  r.iterations = 2;
+  r.refine_epochs = 2;
+  std::vector<std::vector<std::uint8_t>> payloads;
+  for (int threads : {1, 2}) {
+    r.threads = threads;
+    const SweepOutcome s = run_sweep(tile, r);
+    ASSERT_EQ(s.models.size(), 2u) << (s.skipped.empty() ? "" : s.skipped[0].message);
+    EXPECT_EQ(s.settings[0], "components 4, iterations 2, refine epochs 2");
+    EXPECT_EQ(s.settings[1], "components 2");
+    const auto& gm = dynamic_cast<const GaussianMixture&>(*s.models[0].model);
+    const auto& settings = gm.provenance().fit.settings;
+    EXPECT_NE(std::find(settings.begin(), settings.end(),
+                        std::pair<std::string, std::string>{"refine epochs", "2"}),
+              settings.end());
+    payloads.push_back(gm.payload());
+  }
+  EXPECT_EQ(payloads[0], payloads[1]);
+  r.refine_epochs = 0;
+  r.refine_seconds = -1;
+  EXPECT_NE(error_of([&] { run_sweep(tile, r); }).find("--refine-seconds -1: give"),
+            std::string::npos);
+  r.refine_seconds = 0;
+  r.refine_epochs = 3;
+  r.methods = {"pca-btf"};
+  r.ladders.erase("gm");
+  EXPECT_NE(error_of([&] { run_sweep(tile, r); }).find("which is not swept"), std::string::npos);
+}
+
 TEST(Sweep, ParetoFrontKeepsTheHighestPsnrAtEachRatioOrMore) {
   const double nan = std::numeric_limits<double>::quiet_NaN(),
                inf = std::numeric_limits<double>::infinity();
@@ -421,6 +458,44 @@ TEST(SweepCli, WritesTheTableJsonAndReport) {
   r = run(sweep + "-o " + d + "/out");
   EXPECT_EQ(r.status, 1);
   EXPECT_NE(r.err.find("--overwrite"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(dir / "other"));
+  fs::remove_all(dir);
+}
+
+// sweep --refine-epochs measures the file fit --refine-epochs writes (the same payload), and
+// refuses it with no mixture swept.
+TEST(SweepCli, RefinementBoundInEpochsMeasuresTheFileFitWrites) {
+  const fs::path dir =
+      fs::temp_directory_path() / ("btfgmm_sweep_epochs_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  const std::string d = dir.string();
+  CliRun r =
+      run(fmt::format("generate --material knit --size 8 --seed 3 --lights {} --views {} "
+                      "-o {}/btf",
+                      kLights, kViews, d));
+  ASSERT_EQ(r.status, 0) << r.err;
+  const std::string sweep = "sweep " + d + "/btf --tile 0,0,8,8 --iterations 2 --refine-epochs 1 ";
+  r = run(sweep + "--methods gm --components 4 --keep-models -o " + d + "/out");
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_NE(r.err.find("gm components 4, iterations 2, refine epochs 1"), std::string::npos)
+      << r.err;
+  r = run("fit " + d + "/btf --tile 0,0,8,8 -M 4 --iterations 2 --refine-epochs 1 -o " + d +
+          "/fitted.btfgmm");
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_EQ(load_representation(dir / "fitted.btfgmm")->payload(),
+            load_representation(dir / "out/models/gm-M4.btfgmm")->payload());
+  r = run("info " + d + "/out/models/gm-M4.btfgmm");
+  EXPECT_NE(r.out.find("refine epochs 1"), std::string::npos) << r.out;
+  r = run(sweep + "--methods pca-btf -o " + d + "/pca");
+  EXPECT_EQ(r.status, 1);
+  EXPECT_NE(r.err.find("--refine-epochs bound the refinement of the Gaussian mixture (gm), "
+                       "which is not swept"),
+            std::string::npos)
+      << r.err;
+  r = run(sweep + "--refine-seconds 0.1 -o " + d + "/other");
+  EXPECT_EQ(r.status, 2);
+  EXPECT_NE(r.err.find("--refine-seconds 0.1: out of range"), std::string::npos) << r.err;
   EXPECT_FALSE(fs::exists(dir / "other"));
   fs::remove_all(dir);
 }

@@ -11,6 +11,7 @@
 
 #include "btfgmm/core/error.hpp"
 #include "btfgmm/core/text.hpp"
+#include "btfgmm/methods/fit_options.hpp"
 #include "btfgmm/methods/registry.hpp"
 #include "btfgmm/model/model_file.hpp"
 
@@ -51,7 +52,11 @@ std::optional<ModelComparison> fit_setting(const Btf& tile, const BudgetRequest&
   q.ladders[std::string(method.name)] = {s};
   q.threads = r.threads;
   q.seed = r.seed;
-  q.iterations = method.name == kMixtureMethod ? r.iterations : 0;
+  if (method.name == kMixtureMethod) {
+    q.iterations = r.iterations;
+    q.refine_seconds = r.refine_seconds;
+    q.refine_epochs = r.refine_epochs;
+  }
   q.progress = r.progress;
   q.stop = r.stop;
   SweepOutcome o = run_sweep(tile, q);
@@ -264,6 +269,7 @@ std::string budget_note(std::uint64_t budget) {
 BudgetChoice choose_within_budget(const Btf& tile, const BudgetRequest& r) {
   if (r.budget == 0)
     throw Error(Error::Kind::kArgument, "fit `budget`: the budget must be at least 1 byte");
+  check_refine_bounds(r.refine_seconds, r.refine_epochs, FitObjective::kPrediction);
   const std::vector<const MethodInfo*> methods = budget_methods(r);
   BudgetChoice out;
   std::shared_ptr<Representation> smallest;  // the smallest file fitted

@@ -49,9 +49,26 @@ bool iterates(const MethodInfo& m) {
   return fit_option_rule("iterations").takes(m.name);
 }
 
+// Whether the method refines its fit for the prediction (takes the refinement's bounds).
+bool refines(const MethodInfo& m) {
+  return fit_option_rule("refine_epochs").takes(m.name);
+}
+
+// The refinement's bounds of a request: in range, and taken by a method swept.
+void check_refinement_bounds(const SweepRequest& r, std::span<const MethodInfo* const> methods) {
+  if (r.refine_seconds == 0 && r.refine_epochs == 0) return;
+  check_refine_bounds(r.refine_seconds, r.refine_epochs, FitObjective::kPrediction);
+  if (std::none_of(methods.begin(), methods.end(), [](const MethodInfo* m) { return refines(*m); }))
+    throw Error(Error::Kind::kArgument,
+                fmt::format("sweep: {} bound the refinement of the Gaussian mixture (gm), which "
+                            "is not swept; add gm to the methods or leave them out",
+                            option_name(r.refine_epochs ? "refine_epochs" : "refine_seconds")));
+}
+
 // Every setting of every chosen method, with the request's encoding, threads and seed.
 std::vector<Setting> sweep_settings(const ModelFrame& frame, const SweepRequest& r) {
   const std::vector<const MethodInfo*> methods = chosen_methods(r);
+  check_refinement_bounds(r, methods);
   for (const auto& [name, ladder] : r.ladders) {
     const MethodInfo& m = find_method(name);
     if (std::find(methods.begin(), methods.end(), &m) == methods.end())
@@ -70,6 +87,10 @@ std::vector<Setting> sweep_settings(const ModelFrame& frame, const SweepRequest&
       s.threads = r.threads;
       s.seed = r.seed;
       if (r.iterations && iterates(*m)) s.iterations = r.iterations;
+      if (refines(*m)) {
+        if (r.refine_seconds) s.refine_seconds = r.refine_seconds;
+        if (r.refine_epochs) s.refine_epochs = r.refine_epochs;
+      }
       s.progress = nullptr;
       s.stop = r.stop;
       out.push_back({m, s, settings_text(s)});
@@ -170,6 +191,10 @@ std::string settings_text(const MethodSettings& s) {
   add("components", s.components);
   add("degree", s.degree);
   if (s.iterations) t += fmt::format("{}iterations {}", t.empty() ? "" : ", ", s.iterations);
+  if (s.refine_epochs)
+    t += fmt::format("{}refine epochs {}", t.empty() ? "" : ", ", s.refine_epochs);
+  if (s.refine_seconds)
+    t += fmt::format("{}refine seconds {:g}", t.empty() ? "" : ", ", s.refine_seconds);
   return t.empty() ? std::string("the method's defaults") : t;
 }
 

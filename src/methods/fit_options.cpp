@@ -59,12 +59,12 @@ constexpr FitOptionRule kRules[] = {
      .max = kMaxRefineSteps},
     {.field = "refine_seconds",
      .methods = "gm",
-     .routes = kMixtureRoutes,
+     .routes = kMixtureRoutes | FitRoute::kBudget,
      .min = 1,
      .max = kMaxRefineSeconds},
     {.field = "refine_epochs",
      .methods = "gm",
-     .routes = kMixtureRoutes,
+     .routes = kMixtureRoutes | FitRoute::kBudget,
      .min = 1,
      .max = kMaxRefineEpochs},
     {.field = "epsilon", .methods = "gm", .routes = kMixtureRoutes, .min = 0, .max = 1},
@@ -269,22 +269,26 @@ void set_refine_steps(FitConfig& config, int steps) {
   config.refinement_steps = steps;
 }
 
-void set_refine_bounds(FitConfig& config, double seconds, int epochs) {
-  const std::pair<std::string_view, bool> given[] = {{"refine_seconds", seconds > 0},
-                                                     {"refine_epochs", epochs > 0}};
+void check_refine_bounds(double seconds, int epochs, FitObjective objective) {
+  const std::pair<std::string_view, bool> given[] = {{"refine_seconds", seconds != 0},
+                                                     {"refine_epochs", epochs != 0}};
   for (const auto& [field, set] : given) {
     const FitOptionRule& rule = fit_option_rule(field);
     const double value = field == "refine_epochs" ? double(epochs) : seconds;
-    if (set && (value < rule.min || value > rule.max))
+    if (set && !(value >= rule.min && value <= rule.max))
       throw Error(
           Error::Kind::kArgument,
           fmt::format("{} {:g}: give {:g} to {:g}", option_name(field), value, rule.min, rule.max));
-    if (set && config.objective != FitObjective::kPrediction)
+    if (set && objective != FitObjective::kPrediction)
       throw Error(Error::Kind::kArgument,
                   fmt::format("{} applies to the objective prediction only (the paper's EM, {} "
                               "likelihood, refines nothing); leave one of them out",
                               option_name(field), option_name("objective")));
   }
+}
+
+void set_refine_bounds(FitConfig& config, double seconds, int epochs) {
+  check_refine_bounds(seconds, epochs, config.objective);
   if (seconds > 0) config.refinement_seconds = seconds;
   if (epochs > 0) config.refinement_epochs = epochs;
 }

@@ -106,6 +106,8 @@ FitOptions mixture_options(const MethodSettings& s) {
   o.degree = s.degree;
   o.iterations = s.iterations;
   o.levels = s.levels;
+  o.refine_seconds = s.refine_seconds;
+  o.refine_epochs = s.refine_epochs;
   o.seed = s.seed;
   o.threads = s.threads;
   o.precision = to_string(s.encoding);

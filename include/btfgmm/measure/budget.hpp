@@ -31,6 +31,10 @@ struct BudgetRequest {
   std::uint64_t seed = 1;
   int threads = 0;     // 0: OpenMP's default
   int iterations = 0;  // not 0: the mixture's EM iterations (the other methods: their own)
+  // Not 0: the mixture's refinement's bounds (SweepRequest::refine_seconds, refine_epochs);
+  // in epochs, its models depend on the data, settings and seed alone, not on the machine.
+  double refine_seconds = 0.0;
+  int refine_epochs = 0;
   std::function<void(const SweepProgress&)> progress;  // each fit's, as run_sweep reports it
   const std::atomic<bool>* stop = nullptr;
   // How the chosen model's note spells the option it names (core/text.hpp, spell_options):

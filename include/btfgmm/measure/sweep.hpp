@@ -62,6 +62,10 @@ struct SweepRequest {
   // Not 0: set on every setting of the methods that iterate (gm: EM; lpca: rounds; plm-rf: LM
   // steps); the others fit as usual and are named in SweepOutcome::not_iterated.
   int iterations = 0;
+  // Not 0: the refinement's bounds (MethodSettings::refine_seconds, refine_epochs) on every
+  // setting of the methods that refine (gm); given with none of them swept, Error(kArgument).
+  double refine_seconds = 0.0;
+  int refine_epochs = 0;
   // Not empty: each model's file is also written there (created if needed), named
   // ModelComparison::name + ".btfgmm".
   std::filesystem::path model_folder;
@@ -93,9 +97,10 @@ struct SweepOutcome {
 };
 
 // Fits every setting of the request to `tile` and measures it. Throws Error(kArgument) for
-// an unknown method (with the nearest name), a method named twice, or a ladder for a method
-// not swept; an empty ladder (override) fits nothing for that method. Errors other than a
-// refused setting (kIo writing a model file, ...) end the sweep.
+// an unknown method (with the nearest name), a method named twice, a ladder for a method
+// not swept, or refinement bounds out of range or with no method swept that refines; an
+// empty ladder (override) fits nothing for that method. Errors other than a refused setting
+// (kIo writing a model file, ...) end the sweep.
 SweepOutcome run_sweep(const Btf& tile, const SweepRequest& request);
 
 // The settings that set a model's size, for messages: "components 30", "clusters 8,

@@ -82,6 +82,9 @@ void check_fit_options(std::span<const std::string_view> given, std::string_view
 // config.refinement_steps = steps (0: as many as the fit affords). Throws Error(kArgument)
 // for steps outside 0..kMaxRefineSteps, and for steps with an objective other than kPrediction.
 void set_refine_steps(FitConfig& config, int steps);
+// Throws Error(kArgument) for a bound given (not 0) outside its range (a NaN included) or with
+// an objective other than kPrediction (the paper's EM refines nothing).
+void check_refine_bounds(double seconds, int epochs, FitObjective objective);
 // The refinement's bounds where given (> 0): config.refinement_seconds = seconds,
 // config.refinement_epochs = epochs. Throws Error(kArgument) for either given with an
 // objective other than kPrediction (the paper's EM refines nothing) or outside its range.

@@ -55,6 +55,10 @@ struct MethodSettings {
   std::size_t degree = 0;      // plm-rf: degree l of the per-image polynomial
   int iterations = 0;          // gm: EM; lpca: re-assignment rounds; plm-rf: LM steps
   int levels = 0;              // 3d-car, 2d-car, gmrf: Gaussian-Laplacian pyramid levels
+  // gm, the objective prediction: the refinement's bounds, as fit's --refine-seconds and
+  // --refine-epochs (0: the default bound in time; epochs alone lift it).
+  double refine_seconds = 0.0;
+  int refine_epochs = 0;
   std::uint64_t seed = 1;
   int threads = 0;                                 // 0: OpenMP's default
   FactorEncoding encoding = FactorEncoding::kF16;  // of the stored factors
