@@ -390,17 +390,25 @@ std::string slurp(const fs::path& p) {
   return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
 }
 
-TEST(SweepCli, WritesTheTableJsonAndReport) {
-  const fs::path dir =
-      fs::temp_directory_path() / ("btfgmm_sweep_cli_" + std::to_string(::getpid()));
+// A new, empty folder named for `tag` and this process, with the 8 x 8 knit of tiny_tile's
+// directions written by `generate` into DIR/btf.
+fs::path folder_with_generated_btf(const std::string& tag) {
+  const fs::path dir = fs::temp_directory_path() / (tag + std::to_string(::getpid()));
   fs::remove_all(dir);
   fs::create_directories(dir);
-  const std::string d = dir.string();
-  CliRun r =
+  const CliRun r =
       run(fmt::format("generate --material knit --size 8 --seed 3 --lights {} --views {} "
                       "-o {}/btf",
-                      kLights, kViews, d));
-  ASSERT_EQ(r.status, 0) << r.err;
+                      kLights, kViews, dir.string()));
+  EXPECT_EQ(r.status, 0) << r.err;
+  return dir;
+}
+
+TEST(SweepCli, WritesTheTableJsonAndReport) {
+  const fs::path dir = folder_with_generated_btf("btfgmm_sweep_cli_");
+  ASSERT_TRUE(fs::exists(dir / "btf"));
+  const std::string d = dir.string();
+  CliRun r;
   const std::string sweep = "sweep " + d + "/btf --tile 0,0,8,8 --iterations 2 ";
   r = run(sweep + "--methods gm --components 2,4,5000 --keep-models -o " + d + "/out");
   ASSERT_EQ(r.status, 0) << r.err;
@@ -465,16 +473,10 @@ TEST(SweepCli, WritesTheTableJsonAndReport) {
 // sweep --refine-epochs measures the file fit --refine-epochs writes (the same payload), and
 // refuses it with no mixture swept.
 TEST(SweepCli, RefinementBoundInEpochsMeasuresTheFileFitWrites) {
-  const fs::path dir =
-      fs::temp_directory_path() / ("btfgmm_sweep_epochs_" + std::to_string(::getpid()));
-  fs::remove_all(dir);
-  fs::create_directories(dir);
+  const fs::path dir = folder_with_generated_btf("btfgmm_sweep_epochs_");
+  ASSERT_TRUE(fs::exists(dir / "btf"));
   const std::string d = dir.string();
-  CliRun r =
-      run(fmt::format("generate --material knit --size 8 --seed 3 --lights {} --views {} "
-                      "-o {}/btf",
-                      kLights, kViews, d));
-  ASSERT_EQ(r.status, 0) << r.err;
+  CliRun r;
   const std::string sweep = "sweep " + d + "/btf --tile 0,0,8,8 --iterations 2 --refine-epochs 1 ";
   r = run(sweep + "--methods gm --components 4 --keep-models -o " + d + "/out");
   ASSERT_EQ(r.status, 0) << r.err;

@@ -191,8 +191,7 @@ std::string settings_text(const MethodSettings& s) {
   add("components", s.components);
   add("degree", s.degree);
   if (s.iterations) t += fmt::format("{}iterations {}", t.empty() ? "" : ", ", s.iterations);
-  if (s.refine_epochs)
-    t += fmt::format("{}refine epochs {}", t.empty() ? "" : ", ", s.refine_epochs);
+  add("refine epochs", std::size_t(std::max(s.refine_epochs, 0)));
   if (s.refine_seconds)
     t += fmt::format("{}refine seconds {:g}", t.empty() ? "" : ", ", s.refine_seconds);
   return t.empty() ? std::string("the method's defaults") : t;
