@@ -196,6 +196,22 @@ TEST(Factors, Q8IsWithinHalfAStepAndReadsBackBitForBit) {
   EXPECT_NE(msg.find("--precision 'f8'"), std::string::npos) << msg;
 }
 
+// A factor beyond a 16-bit float's range would be written as infinity: refused by the fit's
+// quantisation, which every other encoding accepts.
+TEST(Factors, F16RefusesAValueBeyondItsRange) {
+  std::vector<float> v = {1.0f, -65504.0f, 2.0f, 70000.0f};
+  const std::string why = error_of([&] { detail::quantise_factors(v, 2, FactorEncoding::kF16); });
+  EXPECT_NE(why.find("a factor to store as f16 is 70000"), std::string::npos) << why;
+  EXPECT_NE(why.find("store it as compact (the default), q8 or f32"), std::string::npos) << why;
+  std::vector<float> in_range = {1.0f, -65504.0f, 2.0f, 65504.0f};
+  detail::quantise_factors(in_range, 2, FactorEncoding::kF16);
+  EXPECT_EQ(in_range[3], 65504.0f);
+  for (auto e : {FactorEncoding::kF32, FactorEncoding::kQ8, FactorEncoding::kCompact}) {
+    std::vector<float> q = v;
+    EXPECT_NO_THROW(detail::quantise_factors(q, 2, e)) << to_string(e);
+  }
+}
+
 // The measured data itself as a "method": MeasuredImages' interpolation on known values.
 class StoredImages final : public MeasuredImages {
  public:

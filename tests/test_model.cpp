@@ -19,6 +19,7 @@
 #include "core/fast_exp.hpp"
 #if defined(__AVX512F__)
 #include "model/em_avx512.hpp"
+#include "test_util.hpp"
 #endif
 
 #include <zlib.h>
@@ -477,6 +478,29 @@ TEST(ModelFile, RoundTripIsBitExact) {
   const auto hb = serialize_model(h);
   EXPECT_LT(hb.size(), bytes.size());
   EXPECT_EQ(serialize_model(deserialize_model(hb, "mem")), hb);
+}
+
+// A parameter beyond a 16-bit float's range would be written as infinity (or a deviation as
+// zero): the file would not read back, so it is refused before a byte is written.
+TEST(ModelFile, AMixtureOutsideF16sRangeIsRefusedAndKeptInF32) {
+  BtfModel m = two_component_model();
+  m.mixture.mean[1][6] = 68659.0;  // a cancelling colour mean, as the colour refit can leave
+  m.precision = Precision::kF16;
+  const std::string why = test::error_of([&] { serialize_model(m); });
+  EXPECT_NE(why.find("cannot be stored as f16: component 1's mean of r is 68659"),
+            std::string::npos)
+      << why;
+  EXPECT_NE(why.find("store it as compact (the default) or f32"), std::string::npos) << why;
+  m.precision = Precision::kF32;
+  EXPECT_EQ(deserialize_model(serialize_model(m), "mem").mixture.mean[1][6], 68659.0);
+  m.precision = Precision::kF16;
+  m.mixture.mean[1][6] = 65504.0;  // the largest a half holds
+  EXPECT_EQ(deserialize_model(serialize_model(m), "mem").mixture.mean[1][6], 65504.0);
+  m.mixture.var[0][2] = 1e-18;  // a deviation of 1e-9 rounds to a half's zero
+  EXPECT_NE(test::error_of([&] {
+              serialize_model(m);
+            }).find("component 0's deviation in alpha_i is 1e-09"),
+            std::string::npos);
 }
 
 TEST(ModelFile, EveryTruncatedPrefixIsRejected) {

@@ -99,7 +99,15 @@ void quantise_factors(std::span<float> values, std::size_t cols, FactorEncoding 
   if (e == FactorEncoding::kF32 || cols == 0) return;
   if (e == FactorEncoding::kCompact) return quantise_compact(values, cols);
   if (e == FactorEncoding::kF16) {
-    for (float& v : values) v = half_of(v);
+    for (float& v : values) {
+      if (!(std::abs(v) <= kHalfMax))
+        throw Error(Error::Kind::kArgument,
+                    fmt::format("a factor to store as f16 is {:.6g}, beyond a 16-bit float's "
+                                "range (magnitudes up to {:g}), and its file would not read "
+                                "back; store it as compact (the default), q8 or f32",
+                                v, kHalfMax));
+      v = half_of(v);
+    }
     return;
   }
   // Repeated until the row's offset and scale are those of its own quantised values, so that

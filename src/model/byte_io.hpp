@@ -18,6 +18,10 @@
 
 namespace btfgmm::detail {
 
+// The largest magnitude a 16-bit float (IEEE binary16) holds; beyond it a value becomes
+// infinite, and a file holding it does not read back.
+inline constexpr double kHalfMax = 65504.0;
+
 class ByteWriter {
  public:
   template <class T>

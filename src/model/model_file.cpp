@@ -237,6 +237,32 @@ void read_components(Reader& r, BtfModel& m, detail::MeanBrdfCoding coding) {
   }
 }
 
+// The mixture in 16-bit floats must read back: no mean or deviation beyond kHalfMax, no
+// deviation that rounds to zero. The colour refit can leave cancelling colour means of tens of
+// thousands of levels where components overlap (a 25 x 25 knit at M = 600 reaches 68,659).
+void check_fits_in_f16(const BtfModel& m) {
+  static constexpr const char* kVariable[kVariables] = {
+      "x", "y", "alpha_i", "beta_i", "alpha_v", "beta_v", "r", "g", "b"};
+  auto refuse = [](const std::string& what, double v) {
+    throw Error(Error::Kind::kArgument,
+                fmt::format("the mixture cannot be stored as f16: {} is {:.6g}, outside a 16-bit "
+                            "float's range (magnitudes up to {:g}, deviations above zero), and "
+                            "its file would not read back; store it as compact (the default) "
+                            "or f32",
+                            what, v, detail::kHalfMax));
+  };
+  for (std::size_t k = 0; k < m.mixture.size(); ++k)
+    for (int n = 0; n < kVariables; ++n) {
+      const double mean = m.mixture.mean[k][n], sd = std::sqrt(m.mixture.var[k][n]);
+      if (!(std::abs(mean) <= detail::kHalfMax))
+        refuse(fmt::format("component {}'s mean of {}", k, kVariable[n]), mean);
+      if (!(sd <= detail::kHalfMax) || float(Imath::half(float(sd))) <= 0.0f)
+        refuse(fmt::format("component {}'s deviation in {}", k, kVariable[n]), sd);
+    }
+  for (float v : m.mean_brdf)
+    if (!(std::abs(v) <= detail::kHalfMax)) refuse("a value of the mean BRDF", v);
+}
+
 }  // namespace
 
 std::vector<std::uint8_t> mixture_payload(const BtfModel& m) {
@@ -258,6 +284,7 @@ std::vector<std::uint8_t> mixture_payload(const BtfModel& m) {
     detail::put_compact_components(w, m);
     return std::move(w.bytes);
   }
+  if (p == Precision::kF16) check_fits_in_f16(m);
   w.put<std::uint32_t>(std::uint32_t(m.mixture.size()));
   for (std::size_t k = 0; k < m.mixture.size(); ++k) {
     w.put<float>(float(m.mixture.weight[k]));
