@@ -17,9 +17,9 @@
 #include "btfgmm/model/predict.hpp"
 #include "btfgmm/model/samples.hpp"
 #include "core/fast_exp.hpp"
+#include "test_util.hpp"
 #if defined(__AVX512F__)
 #include "model/em_avx512.hpp"
-#include "test_util.hpp"
 #endif
 
 #include <zlib.h>
