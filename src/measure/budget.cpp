@@ -4,13 +4,13 @@
 #include <fmt/format.h>
 
 #include <algorithm>
-#include <cmath>
 #include <limits>
 #include <tuple>
 #include <utility>
 
 #include "btfgmm/core/error.hpp"
 #include "btfgmm/core/text.hpp"
+#include "btfgmm/measure/size_search.hpp"
 #include "btfgmm/methods/fit_options.hpp"
 #include "btfgmm/methods/registry.hpp"
 #include "btfgmm/model/model_file.hpp"
@@ -99,9 +99,7 @@ struct Probe {
 // The search of one method's sizes: its ladder walked up from the smallest model while the
 // file fits, then, between the largest rung that fits and the first that does not (or below
 // the smallest rung, down to a size of 1; or above the largest, when it fits), the largest
-// size whose file fits, found by
-// predicting each size's bytes from the two nearest fitted (linear in the size, as every
-// method's parameter count is) and confirming the prediction with the real file.
+// size whose file fits (size_search.hpp).
 class MethodSearch {
  public:
   MethodSearch(const Btf& tile, const BudgetRequest& r, const MethodInfo& m, BudgetChoice& out)
@@ -140,65 +138,39 @@ class MethodSearch {
 
  private:
   // Between a size that fits and a larger one that does not: the largest that fits.
-  void between(Probe lo, Probe hi) {
+  void between(const Probe& lo, const Probe& hi) {
     const SizeField f = varying_size(lo.settings, hi.settings);
     if (!f) return;
-    int last = 0;        // the end the last fit moved: 1 the one that fits, 2 the other
-    bool twice = false;  // it moved twice in a row: the prediction is off, halve instead
-    while (hi.settings.*f - lo.settings.*f > 1) {
-      const std::size_t a = lo.settings.*f, b = hi.settings.*f;
-      std::size_t v = a + (b - a) / 2;
-      if (hi.bytes > lo.bytes && !twice) {
-        const double per_size = double(hi.bytes - lo.bytes) / double(b - a);
-        v = a + std::size_t(std::floor(double(r_.budget - lo.bytes) / per_size));
-      }
-      MethodSettings s = lo.settings;
-      s.*f = std::clamp(v, a + 1, b - 1);
-      const std::optional<Probe> p = fit(s);
-      if (synthesis_) return;
-      if (!p) {  // refused for the tile, as every larger size is: no bytes, so halve below it
-        hi = Probe{.settings = s};
-        continue;
-      }
-      (p->fits ? lo : hi) = *p;
-      twice = (p->fits ? 1 : 2) == last;
-      last = p->fits ? 1 : 2;
-    }
+    largest_size_between(size_probe(lo, f), size_probe(hi, f), r_.budget, fit_size(lo.settings, f));
   }
 
-  // Above the largest rung, which fits: sizes predicted from the line through the rung below
-  // it and the largest size that fits so far (or twice the size, from one), each confirmed, until
-  // one is over the budget (then `between`), the method refuses one (then `between` it and the last
-  // that fits, halving), or kAboveTries sizes were fitted. `refused`, a rung the method refused,
-  // caps the sizes.
-  void above(std::optional<Probe> below, Probe top, std::optional<MethodSettings> refused) {
+  // Above the largest rung, which fits (largest_size_above). `refused`, a rung the method
+  // refused, caps the sizes.
+  void above(const std::optional<Probe>& below, const Probe& top,
+             const std::optional<MethodSettings>& refused) {
     const SizeField f = below ? varying_size(below->settings, top.settings)
                               : (refused ? varying_size(top.settings, *refused) : nullptr);
     if (!f) return;
-    std::size_t cap = refused ? (*refused).*f : std::numeric_limits<std::size_t>::max();
-    for (int tries = 0; tries < kAboveTries && top.settings.*f + 1 < cap; ++tries) {
-      MethodSettings s = top.settings;
-      s.*f = std::min(predicted_size_above(below, top, f), cap - 1);
+    const std::size_t cap = refused ? (*refused).*f : std::numeric_limits<std::size_t>::max();
+    std::optional<SizeProbe> under;
+    if (below) under = size_probe(*below, f);
+    largest_size_above(under, size_probe(top, f), cap, r_.budget, fit_size(top.settings, f));
+  }
+
+  static SizeProbe size_probe(const Probe& p, SizeField f) {
+    return {.size = p.settings.*f, .bytes = p.bytes, .fits = p.fits};
+  }
+
+  // `base` with its size `f` set to each size asked, fitted.
+  FitSize fit_size(const MethodSettings& base, SizeField f) {
+    return [this, base, f](std::size_t size) -> std::optional<SizeProbe> {
+      MethodSettings s = base;
+      s.*f = size;
       const std::optional<Probe> p = fit(s);
-      if (synthesis_) return;
-      if (!p) return between(top, Probe{.settings = s});  // refused: no bytes, so halve
-      if (!p->fits) return between(top, *p);
-      top = *p;  // `below` stays: a file's bytes are not strictly monotone in the size, so the
-                 // slope is taken over the widest span fitted
-    }
+      if (!p) return std::nullopt;
+      return size_probe(*p, f);
+    };
   }
-
-  // The size whose file the line through `below` and `top` puts at the budget (at least one
-  // more than top's; twice top's when there is no `below` or the bytes did not grow).
-  std::size_t predicted_size_above(const std::optional<Probe>& below, const Probe& top,
-                                   SizeField f) const {
-    const std::size_t t = top.settings.*f;
-    if (!below || top.bytes <= below->bytes) return 2 * t;
-    const double per_size = double(top.bytes - below->bytes) / double(t - below->settings.*f);
-    return t + std::max<std::size_t>(1, std::size_t(double(r_.budget - top.bytes) / per_size));
-  }
-
-  static constexpr int kAboveTries = 4;
 
   // One setting fitted, measured and recorded as a candidate (the best that fits kept).
   std::optional<Probe> fit(const MethodSettings& s) {
