@@ -8,10 +8,14 @@ namespace btfgmm {
 
 namespace {
 
-// The size the line through `lo` and `hi` (more bytes than lo's) puts at the budget.
+// The slope of the line through `lo` and `hi` (a larger size with more bytes than lo's).
+double bytes_per_size(const SizeProbe& lo, const SizeProbe& hi) {
+  return double(hi.bytes - lo.bytes) / double(hi.size - lo.size);
+}
+
+// The size the line through `lo` and `hi` puts at the budget.
 std::size_t size_at_budget(const SizeProbe& lo, const SizeProbe& hi, std::uint64_t budget) {
-  const double bytes_per_size = double(hi.bytes - lo.bytes) / double(hi.size - lo.size);
-  return lo.size + std::size_t(std::floor(double(budget - lo.bytes) / bytes_per_size));
+  return lo.size + std::size_t(std::floor(double(budget - lo.bytes) / bytes_per_size(lo, hi)));
 }
 
 // Above `top`: the line through `below` and `top` at the budget, at least one more than top;
@@ -19,9 +23,8 @@ std::size_t size_at_budget(const SizeProbe& lo, const SizeProbe& hi, std::uint64
 std::size_t predicted_size_above(const std::optional<SizeProbe>& below, const SizeProbe& top,
                                  std::uint64_t budget) {
   if (!below || top.bytes <= below->bytes) return 2 * top.size;
-  const double bytes_per_size = double(top.bytes - below->bytes) / double(top.size - below->size);
-  return top.size +
-         std::max<std::size_t>(1, std::size_t(double(budget - top.bytes) / bytes_per_size));
+  return top.size + std::max<std::size_t>(
+                        1, std::size_t(double(budget - top.bytes) / bytes_per_size(*below, top)));
 }
 
 }  // namespace

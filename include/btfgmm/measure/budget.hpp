@@ -5,9 +5,9 @@
 // that fits and the first that does not (below the smallest rung: down to a size of 1; above
 // the largest, when it fits: up to the first size over the budget or refused for the tile)
 // searched by predicting a size's bytes from the two nearest fitted and confirming with the
-// real file (size_search.hpp), every setting fitted and measured as run_sweep does; then the candidate that fits
-// with the highest PSNR on the tile kept. `btfgmm fit --budget` and `--ratio` format what
-// choose_within_budget returns.
+// real file (size_search.hpp), every setting fitted and measured as run_sweep does; then the
+// candidate that fits with the highest PSNR on the tile kept. `btfgmm fit --budget` and
+// `--ratio` format what choose_within_budget returns.
 #pragma once
 
 #include <atomic>

@@ -26,8 +26,8 @@ struct SizeProbe {
 // (as it then refuses every larger one).
 using FitSize = std::function<std::optional<SizeProbe>(std::size_t size)>;
 
-// At most this many sizes are fitted above a ladder's top before the search stops (each one
-// at least twice as far above the last that fits as the one before, so 2^15 sizes above it).
+// At most this many sizes are fitted above a ladder's top before the search stops (the k-th at
+// least 2^(k-1) sizes above the one before, so the last at least 2^16 - 1 sizes above the top).
 inline constexpr int kMostSizesAbove = 16;
 
 // Between `lo`, which fits, and `hi`, a larger size over the budget or refused (bytes 0):
