@@ -67,7 +67,8 @@ TEST(Fit, ModelBeatsTheMeanBrdfOnAGeneratedTile) {
 
   // Decoding skips components within its tolerance: against every component evaluated
   // (tolerance 0), the default (1e-3 levels) stays within 2e-3 levels, a coarse 2 levels
-  // within 2.001 but not exactly equal; and the exact decode equals predict() to 1e-3.
+  // within 2.001, 256 levels within 256.001 but not exactly equal; and the exact decode equals
+  // predict() to 1e-3.
   const Btf exact = decode(model, btf.lights(), btf.views(), 16, 16, 0.0);
   auto max_diff = [&](const Btf& other) {
     double worst = 0.0;
@@ -80,7 +81,13 @@ TEST(Fit, ModelBeatsTheMeanBrdfOnAGeneratedTile) {
   std::printf("  decode: largest change with tolerance 1e-3: %.2e, with 2 levels: %.3f\n",
               max_diff(decoded), coarse);
   EXPECT_LE(coarse, 2.001);
-  EXPECT_GT(coarse, 0.0);
+  // Whether 2 levels skip a term large enough to change a float sum depends on the model's
+  // last bits (the AVX-512 and the portable EM give models a rounding apart): a tolerance of
+  // 256 levels must skip, and stay within its bound.
+  const double wide = max_diff(decode(model, btf.lights(), btf.views(), 16, 16, 256.0));
+  std::printf("  with 256 levels: %.3f\n", wide);
+  EXPECT_LE(wide, 256.001);
+  EXPECT_GT(wide, 0.0);
   std::vector<Query> queries;
   for (std::size_t l = 0; l < btf.lights().size(); l += 7)
     for (std::size_t v = 0; v < btf.views().size(); v += 5)
