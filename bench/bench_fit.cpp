@@ -44,6 +44,7 @@
 #include <vector>
 
 #include "bench_clock.hpp"
+#include "bench_samples.hpp"
 #include "btfgmm/btfgmm.hpp"
 #include "btfgmm/model/em.hpp"
 #include "btfgmm/model/model.hpp"
@@ -80,19 +81,7 @@ struct Result {
 };
 
 btfgmm::SampleSet samples(const Options& o) {
-  btfgmm::GenerateConfig g;
-  g.material = "corduroy";
-  g.size = o.size;
-  g.seed = 1;
-  const btfgmm::Btf full = btfgmm::generate(g);
-  if (o.tile == o.size) return btfgmm::make_sample_set(full);  // no copy of the whole BTF
-  btfgmm::Btf tile(full.lights(), full.views(), o.tile, o.tile, full.format());
-  for (std::size_t l = 0; l < full.lights().size(); ++l)
-    for (std::size_t v = 0; v < full.views().size(); ++v)
-      for (int y = 0; y < o.tile; ++y)
-        for (int x = 0; x < o.tile; ++x)
-          for (int c = 0; c < 3; ++c) tile.at(l, v, x, y, c) = full.at(l, v, x, y, c);
-  return btfgmm::make_sample_set(tile);
+  return bench::corduroy_samples(o.size, o.tile);
 }
 
 using bench::cpu_now;

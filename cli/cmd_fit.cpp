@@ -50,6 +50,7 @@ btfgmm::FitOptions library_options(const FitArguments& o) {
   if (o.given.count("--epsilon")) f.epsilon = o.epsilon;
   f.seed = o.seed;
   f.threads = o.threads;
+  if (o.given.count("--device")) f.device = o.device;
   f.precision = o.precision;
   f.objective = o.objective;
   f.refine_steps = o.refine_steps;
@@ -298,6 +299,12 @@ void register_fit_command(CLI::App& app, Commands& commands) {
                 "Threads (0: all cores; the model does not depend "
                 "on it)")
       ->check(table_range<int>("threads"))
+      ->capture_default_str();
+  f->add_option("--device", fit->device,
+                methods_of("device") +
+                    ": where EM runs: auto (a GPU where one exists, else the CPU), cpu, or gpu "
+                    "(a GPU, else a software Vulkan such as lavapipe; docs/GPU.md)")
+      ->check(CLI::IsMember({"auto", "cpu", "gpu"}))
       ->capture_default_str();
   f->add_option("--precision", fit->precision,
                 "gm: compact (default: each parameter quantised with a stated step, zstd; "

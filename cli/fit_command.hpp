@@ -26,6 +26,7 @@ struct FitArguments {
   double epsilon = 0.0;
   std::uint64_t seed = 1;
   int threads = 0;
+  std::string device = "auto";  // where EM runs: auto, cpu or gpu
   bool overwrite = false, quiet = false;
   std::string checkpoint, resume, continue_from, log;
   int checkpoint_every = 1;

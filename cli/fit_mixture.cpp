@@ -87,6 +87,7 @@ btfgmm::FitRequest fit_request(const FitArguments& o) {
   btfgmm::set_refine_bounds(r.config, o.refine_seconds, o.refine_epochs);
   r.checkpoint_every = o.checkpoint_every;
   r.config.em.threads = o.threads;
+  r.config.device = *btfgmm::parse_device_choice(o.device);
   r.config.em.stop = &g_stop;
   return r;
 }
@@ -134,19 +135,24 @@ void print_refinement(const btfgmm::GradientProgress& p, double& printed_at) {
              human_seconds(p.elapsed), most);
 }
 
-// What the fit will take, said before EM: its iterations at the time one takes (timed on a
-// few lights), then the refinement's bound.
+// Where EM runs: "on the CPU" or "on the GPU NAME (Vulkan, DRIVER)".
+std::string device_words(const btfgmm::FitPlan& p) {
+  return p.device == "cpu" ? "on the CPU" : "on the GPU " + p.device;
+}
+
+// What the fit will take, said before EM: where EM runs, its iterations at the time one
+// takes (timed on a few lights), then the refinement's bound.
 void print_plan(const btfgmm::FitPlan& p) {
   const double em = p.em_iteration_seconds * double(p.iterations);
   if (p.refinement_seconds > 0 && p.refinement_epochs > 0 &&
       p.refinement_seconds >= btfgmm::kMaxRefineSeconds) {
     fmt::print(stderr,
-               "plan: EM, at most {} iterations of M = {} at about {} each (timed on a few "
+               "plan: EM {}, at most {} iterations of M = {} at about {} each (timed on a few "
                "lights): about {}; then the refinement for the prediction, at most {} epochs "
                "(--refine-epochs; each a pass over the tile's samples, several EM iterations' "
                "time)\n",
-               p.iterations, p.components, human_seconds(p.em_iteration_seconds), human_seconds(em),
-               p.refinement_epochs);
+               device_words(p), p.iterations, p.components, human_seconds(p.em_iteration_seconds),
+               human_seconds(em), p.refinement_epochs);
     return;
   }
   const std::string refinement =
@@ -155,10 +161,10 @@ void print_plan(const btfgmm::FitPlan& p) {
                         human_seconds(p.refinement_seconds))
           : std::string();
   fmt::print(stderr,
-             "plan: EM, at most {} iterations of M = {} at about {} each (timed on a few "
+             "plan: EM {}, at most {} iterations of M = {} at about {} each (timed on a few "
              "lights): about {}{}; in all at most about {}\n",
-             p.iterations, p.components, human_seconds(p.em_iteration_seconds), human_seconds(em),
-             refinement, human_seconds(em + p.refinement_seconds));
+             device_words(p), p.iterations, p.components, human_seconds(p.em_iteration_seconds),
+             human_seconds(em), refinement, human_seconds(em + p.refinement_seconds));
 }
 
 // One EM iteration; the time left is estimated from this run's iterations. The first

@@ -160,7 +160,8 @@ Model fit(const py::object& data, const std::string& method, const py::object& t
           std::size_t components, std::size_t clusters, std::size_t degree, int iterations,
           std::optional<double> epsilon, std::uint64_t seed, int threads,
           std::optional<std::string> precision, std::optional<std::string> objective, int levels,
-          int refine_steps, double refine_seconds, int refine_epochs, const py::object& progress) {
+          int refine_steps, double refine_seconds, int refine_epochs, const std::string& device,
+          const py::object& progress) {
   const DataArg d = data_arg(data, "fit");
   if (d.tile && !tile.is_none())
     throw Error(Error::Kind::kArgument,
@@ -181,6 +182,7 @@ Model fit(const py::object& data, const std::string& method, const py::object& t
   o.refine_steps = refine_steps;
   o.refine_seconds = refine_seconds;
   o.refine_epochs = refine_epochs;
+  o.device = device == "auto" ? "" : device;
   const std::string text = tile_text(tile);
   FitWatch watch(progress);
   FitProgress p;
@@ -266,7 +268,7 @@ void bind_fit(py::module_& m) {
         py::arg("degree") = 0, py::arg("iterations") = 0, py::arg("epsilon") = py::none(),
         py::arg("seed") = 1, py::arg("threads") = 0, py::arg("precision") = py::none(),
         py::arg("objective") = py::none(), py::arg("levels") = 0, py::arg("refine_steps") = 0,
-        py::arg("refine_seconds") = 0.0, py::arg("refine_epochs") = 0,
+        py::arg("refine_seconds") = 0.0, py::arg("refine_epochs") = 0, py::arg("device") = "auto",
         py::arg("progress") = py::none(), fit_doc());
   m.def("compare", &compare, py::arg("data"), py::arg("model"), py::kw_only(),
         py::arg("force") = false,

@@ -67,7 +67,7 @@ TEST_F(Cli, GenerateInfoFitInfoEvalDecode) {
   EXPECT_NE(r.out.find("iteration   3/3"), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("ETA"), std::string::npos) << r.out;
   // Before EM, what the fit will take.
-  EXPECT_LT(r.out.find("plan: EM, at most 3 iterations of M = 5 at about "),
+  EXPECT_LT(r.out.find("plan: EM on the CPU, at most 3 iterations of M = 5 at about "),
             r.out.find("iteration   1/3"))
       << r.out;
   EXPECT_NE(r.out.find("then the refinement for the prediction, at most 30.0 s"), std::string::npos)

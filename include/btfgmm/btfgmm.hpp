@@ -12,6 +12,7 @@
 #include "btfgmm/core/limits.hpp"
 #include "btfgmm/core/parse.hpp"
 #include "btfgmm/core/text.hpp"
+#include "btfgmm/gpu/compute_device.hpp"
 // io: files, images, data sets
 #include "btfgmm/io/convert.hpp"
 #include "btfgmm/io/dataset.hpp"

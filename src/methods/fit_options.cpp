@@ -88,6 +88,7 @@ constexpr FitOptionRule kRules[] = {
     {.field = "continue", .methods = "gm", .routes = unsigned(FitRoute::kContinue)},
     {.field = "log", .methods = "gm", .routes = kMixtureRoutes},
     {.field = "threads", .methods = "all", .routes = kAnyRoute, .min = 0, .max = 1024},
+    {.field = "device", .methods = "gm", .routes = kMixtureRoutes},
 };
 
 // "`a`", "`a`, `b`", ... of the fields, and "it" or "them".
@@ -225,6 +226,7 @@ std::vector<std::string_view> given_fields(const FitOptions& o) {
       {"refine_steps", o.refine_steps != 0},
       {"refine_seconds", o.refine_seconds != 0},
       {"refine_epochs", o.refine_epochs != 0},
+      {"device", !o.device.empty()},
   };
   std::vector<std::string_view> out;
   for (const auto& [field, given] : set)
@@ -317,7 +319,17 @@ FitRequest mixture_fit_request(const FitOptions& o, const std::string& input,
   set_refine_steps(r.config, o.refine_steps);
   set_refine_bounds(r.config, o.refine_seconds, o.refine_epochs);
   r.precision = mixture_precision(o.precision);
+  r.config.device = fit_device(o);
   return r;
+}
+
+DeviceChoice fit_device(const FitOptions& o) {
+  if (o.device.empty()) return DeviceChoice::kAuto;
+  if (const auto choice = parse_device_choice(o.device)) return *choice;
+  throw Error(Error::Kind::kArgument,
+              fmt::format("{} '{}' is not a device: give auto (a GPU where one exists, else the "
+                          "CPU), cpu or gpu",
+                          option_name("device"), o.device));
 }
 
 MethodSettings method_settings(const FitOptions& o, const MethodInfo& method) {

@@ -38,7 +38,9 @@
 #include "btfgmm/model/em.hpp"
 #include "btfgmm/model/samples.hpp"
 #include "core/flush_denormals.hpp"
+#include "model/em_gpu.hpp"
 #include "model/em_group_pass.hpp"
+#include "model/em_light_statistics.hpp"
 #include "model/em_tables.hpp"
 #include "model/mixture_internal.hpp"
 #include "model/responsibilities.hpp"
@@ -47,6 +49,7 @@ namespace btfgmm {
 namespace {
 
 using detail::kGroup;
+using detail::kPerComponent;
 using detail::Periods;
 using detail::Tables;
 using detail::Workspace;
@@ -246,11 +249,8 @@ void view_angle_sums(const SampleSet& s, const Tables& t, const ProductMixture& 
 }
 
 // What one light contributes to the sufficient statistics of the M-step, from its chunks'
-// (reduced in chunk order, into the first): kLightValues numbers, L's terms first, then per
-// component (in the mixture's order) sum q, the nine sums of q (x - mu_old) and the nine of
-// q (x - mu_old)^2 (x, y as accumulated; the angles from this light and the views; the
-// colours as accumulated).
-constexpr std::size_t kPerComponent = 1 + 2 * kVariables;
+// (reduced in chunk order, into the first) and the view angles' sums from its per-view sums
+// (em_light_statistics.hpp).
 std::vector<double> light_statistics(const SampleSet& s, const Tables& t, const ProductMixture& mix,
                                      std::size_t l, std::span<ChunkStats> chunks,
                                      const Periods& periods) {
@@ -259,36 +259,9 @@ std::vector<double> light_statistics(const SampleSet& s, const Tables& t, const 
   std::vector<double> views(4 * st, 0.0);  // alpha_v: s1, s2; beta_v: s1, s2
   view_angle_sums(s, t, mix, 4, sum.qv.data(), &views[0], &views[st]);
   view_angle_sums(s, t, mix, 5, sum.qv.data(), &views[2 * st], &views[3 * st]);
-  std::vector<double> out(1 + t.m * kPerComponent, 0.0);
-  out[0] = sum.ll;
-  for (std::size_t k = 0; k < t.m; ++k) {
-    const std::size_t m = t.order[k];  // table column k holds component m
-    double* o = &out[1 + m * kPerComponent];
-    double* s1 = o + 1;
-    double* s2 = o + 1 + kVariables;
-    const auto& mu = mix.mean[m];
-    auto add = [&](int n, double q, double x) {
-      const double d = detail::wrapped_difference(x - mu[n], periods[std::size_t(n)]);
-      s1[n] += q * d;
-      s2[n] += q * d * d;
-    };
-    o[0] = sum.q[k];
-    s1[0] = sum.xy[k];
-    s2[0] = sum.xy[st + k];
-    s1[1] = sum.xy[2 * st + k];
-    s2[1] = sum.xy[3 * st + k];
-    add(2, sum.q[k], s.light_ab[l][0]);
-    add(3, sum.q[k], s.light_ab[l][1]);
-    for (int n = 4; n < 6; ++n) {
-      s1[n] = views[std::size_t(2 * (n - 4)) * st + k];
-      s2[n] = views[std::size_t(2 * (n - 4) + 1) * st + k];
-    }
-    for (int c = 0; c < 3; ++c) {
-      s1[6 + c] = sum.c1[std::size_t(c) * st + k];
-      s2[6 + c] = sum.c2[std::size_t(c) * st + k];
-    }
-  }
-  return out;
+  const detail::ColumnSums sums{sum.ll,       sum.q.data(),  sum.xy.data(),
+                                views.data(), sum.c1.data(), sum.c2.data()};
+  return detail::light_statistics(s, t, mix, l, sums, periods);
 }
 
 // L's terms of one light alone (the E pass without statistics): its chunks' in chunk order.
@@ -452,12 +425,20 @@ bool asked_to_stop(const SampleSet& s, const EmConfig& config) {
 }
 
 // L of Eq. (3) of `mix` over every process's samples.
+// The E pass on the fit's compute device where it has one (em_gpu.hpp), else on the threads.
+std::vector<std::vector<double>> any_e_pass(detail::GpuEPass* gpu, const SampleSet& s,
+                                            const Tables& t, const ProductMixture& mix,
+                                            const std::vector<std::uint8_t>& order,
+                                            const Periods& periods, int threads, bool stats) {
+  return gpu ? gpu->run(t, mix, periods, stats) : e_pass(s, t, mix, order, periods, threads, stats);
+}
+
 double log_likelihood_of(const SampleSet& s, const ProductMixture& mix,
                          const std::vector<std::uint8_t>& order, const Periods& periods,
-                         int threads) {
+                         int threads, detail::GpuEPass* gpu = nullptr) {
   const Tables t = detail::make_tables(s, mix, periods, threads);
-  return combine(s, mix.size(), false, e_pass(s, t, mix, order, periods, threads, false), threads)
-             .log_likelihood /
+  auto lights = any_e_pass(gpu, s, t, mix, order, periods, threads, false);
+  return combine(s, mix.size(), false, std::move(lights), threads).log_likelihood /
          double(s.size());
 }
 
@@ -469,13 +450,14 @@ double seconds_from(Clock::time_point t) {
 // process's statistics added in light order; the M-step, Eq. (5)-(7). Returns L of the
 // parameters it started from; adds the time of each stage to `stages`.
 double em_iteration(const SampleSet& s, ProductMixture& mix, const EmConfig& config,
-                    const std::vector<std::uint8_t>& order, int threads, EmResult& result) {
+                    const std::vector<std::uint8_t>& order, int threads, detail::GpuEPass* gpu,
+                    EmResult& result) {
   const Periods periods = detail::tile_periods(s, config.tile_wraps);
   auto at = Clock::now();
   const Tables t = detail::make_tables(s, mix, periods, threads);
   result.stages.tables += seconds_from(at);
   at = Clock::now();
-  auto lights = e_pass(s, t, mix, order, periods, threads, true);
+  auto lights = any_e_pass(gpu, s, t, mix, order, periods, threads, true);
   result.stages.e_pass += seconds_from(at);
   at = Clock::now();
   const Combined c = combine(s, mix.size(), true, std::move(lights), threads);
@@ -496,14 +478,18 @@ EmResult fit_em(const SampleSet& s, ProductMixture& mix, const EmConfig& config,
   const auto t0 = Clock::now() - std::chrono::duration_cast<Clock::duration>(
                                      std::chrono::duration<double>(before));
   const int threads = resolve_threads(config.threads);
-  const std::vector<std::uint8_t> order = detail::view_order(s);
+  // The device holds the samples for every iteration; the CPU's pass reads the views in
+  // their colour order.
+  std::optional<detail::GpuEPass> gpu;
+  if (config.device) gpu.emplace(*config.device, s);
+  const std::vector<std::uint8_t> order = gpu ? std::vector<std::uint8_t>{} : detail::view_order(s);
   EmResult result;
   if (resume) {
     result = *resume;
     result.interrupted = false;
   }
   for (int it = result.iterations + 1; it <= config.max_iterations && !result.converged; ++it) {
-    const double ll = em_iteration(s, mix, config, order, threads, result);
+    const double ll = em_iteration(s, mix, config, order, threads, gpu ? &*gpu : nullptr, result);
     // Stop test: the gain of L (record_iteration), or a stop from outside (the state so far,
     // to resume from).
     detail::record_iteration(result, ll, it, config, mix.size(), t0, progress);
@@ -515,12 +501,14 @@ EmResult fit_em(const SampleSet& s, ProductMixture& mix, const EmConfig& config,
   }
   result.final_log_likelihood =
       config.final_log_likelihood
-          ? log_likelihood_of(s, mix, order, detail::tile_periods(s, config.tile_wraps), threads)
+          ? log_likelihood_of(s, mix, order, detail::tile_periods(s, config.tile_wraps), threads,
+                              gpu ? &*gpu : nullptr)
           : std::numeric_limits<double>::quiet_NaN();
   return result;
 }
 
-double estimate_em_iteration_seconds(const SampleSet& s, std::size_t components, int threads) {
+double estimate_em_iteration_seconds(const SampleSet& s, std::size_t components, int threads,
+                                     const std::shared_ptr<ComputeDevice>& device) {
   check_em_size(s, components);
   const std::size_t held = s.held_lights();
   const std::size_t probe = std::clamp<std::size_t>((held + 31) / 32, 1, held);
@@ -541,11 +529,14 @@ double estimate_em_iteration_seconds(const SampleSet& s, std::size_t components,
   // The E pass of the probe's lights, run until 3 runs or 0.2 s: the least of its times (the
   // first run starts the threads; a loaded machine slows some runs).
   std::optional<Combined> c;
+  std::optional<detail::GpuEPass> gpu;
+  if (device) gpu.emplace(*device, p);
+  const std::vector<std::uint8_t> order = gpu ? std::vector<std::uint8_t>{} : detail::view_order(p);
   double per_light = std::numeric_limits<double>::infinity(), spent = 0.0;
   for (int run = 0; run < 3 && (run == 0 || spent < 0.2); ++run) {
     at = Clock::now();
     c.emplace(combine(p, mix.size(), true,
-                      e_pass(p, t, mix, detail::view_order(p), periods, n, true), n));
+                      any_e_pass(gpu ? &*gpu : nullptr, p, t, mix, order, periods, n, true), n));
     const double seconds = seconds_from(at);
     spent += seconds;
     per_light = std::min(per_light, seconds / double(probe));

@@ -82,6 +82,11 @@ LoadedTile load_tile(const FitRequest& r) {
   return t;
 }
 
+// Where EM ran, as the plan and the provenance name it.
+std::string device_text(const std::shared_ptr<ComputeDevice>& device) {
+  return device ? device->info().description() : "cpu";
+}
+
 // The settings of a mixture's fit as its provenance records them.
 std::vector<std::pair<std::string, std::string>> settings_record(const FitRequest& r) {
   const int threads = r.config.em.threads > 0 ? r.config.em.threads : omp_get_max_threads();
@@ -94,7 +99,8 @@ std::vector<std::pair<std::string, std::string>> settings_record(const FitReques
       {"seed", fmt::to_string(r.config.seed)},
       {"precision", std::string(precision_name(r.precision))},
       {"threads", fmt::to_string(threads)},
-      {"processes", fmt::to_string(r.processes ? r.processes->size() : 1)}};
+      {"processes", fmt::to_string(r.processes ? r.processes->size() : 1)},
+      {"device", device_text(open_compute_device(r.config.device))}};
   if (r.config.refinement_steps > 0)  // --refine-steps, for --continue to refine alike
     s.emplace_back("refine steps", fmt::to_string(r.config.refinement_steps));
   if (r.config.refinement_seconds > 0)  // --refine-seconds, for --continue alike
@@ -261,7 +267,9 @@ BtfModel fit_samples(const SampleSet& samples, const FitTile& tile, const FitCon
   check_supported_components(config, samples.size());
   ProductMixture mix =
       resume ? resume->mixture : initial_mixture(samples, config.components, config.seed);
-  const EmResult em = fit_em(samples, mix, config.em, progress, resume ? &resume->result : nullptr,
+  EmConfig em_config = config.em;
+  if (!em_config.device) em_config.device = open_compute_device(config.device);
+  const EmResult em = fit_em(samples, mix, em_config, progress, resume ? &resume->result : nullptr,
                              after_iteration);
   if (state) *state = FitState{mix, em};
   if (em.interrupted) return BtfModel{};
@@ -417,12 +425,14 @@ FitPlan plan_fit(const SampleSet& samples, const FitRequest& request) {
   const FitConfig& config = request.config;
   check_supported_components(config, samples.size());
   const int done = request.resume ? request.resume->checkpoint.state.result.iterations : 0;
+  const auto device = config.em.device ? config.em.device : open_compute_device(config.device);
   return {.components = config.components,
           .iterations = std::max(0, config.em.max_iterations - done),
           .em_iteration_seconds =
-              estimate_em_iteration_seconds(samples, config.components, config.em.threads),
+              estimate_em_iteration_seconds(samples, config.components, config.em.threads, device),
           .refinement_seconds = refinement_bound(config),
-          .refinement_epochs = config.refinement_epochs};
+          .refinement_epochs = config.refinement_epochs,
+          .device = device_text(device)};
 }
 
 }  // namespace

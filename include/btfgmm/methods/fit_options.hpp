@@ -39,7 +39,12 @@ struct FitOptions {
   int refine_steps = 0;   // gm, prediction: the refinement's Adam steps (0: its stopping rule)
   double refine_seconds = 0.0;  // gm, prediction: its bound on time (0: default_refine_seconds)
   int refine_epochs = 0;  // gm, prediction: its bound in passes over the data (0: none but 1000)
+  std::string device;     // gm: where EM runs, "auto" (default: a GPU where one exists), "cpu",
+                          // "gpu" (docs/GPU.md)
 };
+
+// The device `o.device` names (empty: kAuto). Throws Error(kArgument) for any other word.
+DeviceChoice fit_device(const FitOptions& o);
 
 // What a fit request does: a new fit, an interrupted mixture's fit resumed from its
 // checkpoint, a finished mixture continued, or the method and size chosen within a budget.

@@ -3,6 +3,7 @@
 #pragma once
 
 #include <functional>
+#include <memory>
 
 #include "btfgmm/model/mixture.hpp"
 #include "btfgmm/model/samples.hpp"
@@ -36,7 +37,9 @@ double mean_log_likelihood(const SampleSet& samples, const ProductMixture& mixtu
 // components are equal and spread over the whole set, so that none is skipped as negligible:
 // EM's later iterations, with narrower components, tend to take less. Throws as
 // check_em_size before any work.
+// With `device`, the iteration's E pass is timed on that device (docs/GPU.md).
 double estimate_em_iteration_seconds(const SampleSet& samples, std::size_t components,
-                                     int threads = 0);
+                                     int threads = 0,
+                                     const std::shared_ptr<ComputeDevice>& device = nullptr);
 
 }  // namespace btfgmm

@@ -39,6 +39,9 @@ struct FitConfig {
   // kMaxRefineEpochs. Bounded in passes over the data rather than in time, a fit gives the
   // same model on any machine at any load.
   int refinement_epochs = 0;
+  // Where EM's E pass runs (gpu/compute_device.hpp, docs/GPU.md): kAuto, a hardware GPU where
+  // one exists, else the CPU. The fit opens the device; em.device, where set, is used as is.
+  DeviceChoice device = DeviceChoice::kAuto;
 };
 
 // The mixture's fit of `components` components and `iterations` EM iterations (0: the
@@ -128,6 +131,7 @@ struct FitPlan {
   double em_iteration_seconds = 0.0;  // about; EM's later iterations tend to take less
   double refinement_seconds = 0.0;    // at most (0: no refinement, the likelihood objective)
   int refinement_epochs = 0;          // at most, where the fit asked for a bound in epochs
+  std::string device;                 // where EM runs: "cpu" or the GPU's description
 };
 
 // The refinement's bound on its time: config.refinement_seconds, or by default

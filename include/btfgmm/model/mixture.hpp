@@ -12,8 +12,11 @@
 #include <cstddef>
 #include <cstdint>
 #include <functional>
+#include <memory>
 #include <span>
 #include <vector>
+
+#include "btfgmm/gpu/compute_device.hpp"
 
 namespace btfgmm {
 
@@ -70,6 +73,9 @@ struct EmConfig {
   // a model assumes. Off, EM fits the paper's plain model, unwrapped; only to compare with
   // other implementations of that model (bench_fit beside Armadillo's gmm_diag).
   bool tile_wraps = true;
+  // The compute device that sums the E pass (gpu/compute_device.hpp, docs/GPU.md); null: this
+  // machine's threads. The same statistics either way, up to the order of float sums.
+  std::shared_ptr<ComputeDevice> device;
 };
 
 // One EM iteration as it finished: L of Eq. (3) for the parameters the iteration started

@@ -1,0 +1,186 @@
+// bench_gpu: EM on the CPU beside EM on the GPU (docs/GPU.md), the same samples from the same
+// starting parameters, one after the other in this process: for each, the time of an
+// iteration (the mean of iterations 2..K), the E pass alone, ns per sample x component of an
+// iteration, and the mean log-likelihood at every iteration with the largest relative
+// difference between the two (the GPU sums in another order: at most 1e-5 is the same fit).
+//
+//   bench_gpu [--size S] [--tile T] [--components M] [--iterations K] [--threads N]
+//             [--device gpu|auto] [--no-cpu]
+//
+// --no-cpu: the GPU's run alone (its times, no comparison).
+//
+// Samples: a generated corduroy BTF (S x S pixels, 81 x 81 directions), its T x T tile.
+// Exits 1 where the two log-likelihoods differ by more than 1e-5 relative, 2 on bad options,
+// 3 where no device is found.
+#include <omp.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <string>
+
+#include "bench_clock.hpp"
+#include "bench_samples.hpp"
+#include "btfgmm/btfgmm.hpp"
+#include "model/em_gpu.hpp"
+#include "model/em_tables.hpp"
+
+namespace {
+
+struct Options {
+  int size = 64, tile = 64, iterations = 5, threads = 0;
+  std::size_t components = 600;
+  std::string device = "gpu";
+  bool cpu = true;  // --no-cpu: the GPU's run alone
+};
+
+struct Run {
+  btfgmm::ProductMixture mixture;
+  btfgmm::EmResult result;
+  double per_iteration = 0.0, e_pass = 0.0, seconds = 0.0;
+};
+
+btfgmm::SampleSet samples(const Options& o) {
+  return bench::corduroy_samples(o.size, o.tile);
+}
+
+Run run_em(const Options& o, const btfgmm::SampleSet& s,
+           const std::shared_ptr<btfgmm::ComputeDevice>& device) {
+  btfgmm::ProductMixture mix = btfgmm::initial_mixture(s, o.components, 7);
+  btfgmm::EmConfig c;
+  c.max_iterations = o.iterations;
+  c.threads = o.threads;
+  c.device = device;
+  const double t0 = bench::now();
+  Run r;
+  r.result = btfgmm::fit_em(s, mix, c);
+  r.seconds = bench::now() - t0;
+  const auto& t = r.result.seconds;
+  r.per_iteration = t.size() > 1 ? (t.back() - t.front()) / double(t.size() - 1) : t.front();
+  r.e_pass = r.result.stages.e_pass / double(std::max(1, r.result.iterations));
+  r.mixture = std::move(mix);
+  return r;
+}
+
+// One E pass on the device from EM's final mixture (components as narrow as EM leaves
+// them), `runs` times: where its time goes (em_gpu.hpp, GpuEPass::Seconds), per pass.
+void print_stages(const Options& o, const btfgmm::SampleSet& s, const btfgmm::ProductMixture& mix,
+                  btfgmm::ComputeDevice& device, double n) {
+  namespace d = btfgmm::detail;
+  const d::Periods periods = d::tile_periods(s, true);
+  const int runs = 3;
+  double tables = 0.0;
+  d::GpuEPass pass(device, s);
+  for (int r = 0; r < runs; ++r) {
+    const double t0 = bench::now();
+    const d::Tables t = d::make_tables(s, mix, periods, o.threads);
+    tables += bench::now() - t0;
+    pass.run(t, mix, periods, true);
+  }
+  const d::GpuEPass::Seconds& g = pass.seconds();
+  const double kernels = (g.normaliser + g.statistics) / runs;
+  // About 15 operations a sample x component in the normaliser and 35 in the statistics,
+  // besides an exp in each (the shaders' loops).
+  const double flops = 50.0 * n * double(mix.size());
+  std::printf(
+      "\nthe GPU's E pass from EM's final mixture (M = %zu), per pass (mean of %d): "
+      "tables (CPU) %.4f s, upload %.4f s, normaliser %.4f s, statistics and light sums "
+      "%.4f s, downloads and assembly %.4f s; the kernels %.3f ns per sample x component, "
+      "about %.0f Gflop/s (50 flops a sample x component)\n",
+      mix.size(), runs, tables / runs, g.upload / runs, g.normaliser / runs, g.statistics / runs,
+      g.host / runs, kernels / (n * double(mix.size())) * 1e9, flops / kernels * 1e-9);
+}
+
+void print_row(const char* name, const Run& r, double n, std::size_t m) {
+  std::printf("| %s | %.4f | %.4f | %.3f | %.3f | %.10f |\n", name, r.per_iteration, r.e_pass,
+              r.per_iteration / (n * double(m)) * 1e9, r.seconds, r.result.final_log_likelihood);
+  std::fflush(stdout);
+}
+
+bool parse(int argc, char** argv, Options& o) {
+  for (int i = 1; i < argc; i += 2) {
+    const std::string a = argv[i];
+    if (a == "--no-cpu") {
+      o.cpu = false;
+      --i;
+      continue;
+    }
+    if (i + 1 == argc) return false;
+    const std::string v = argv[i + 1];
+    if (a == "--size")
+      o.size = std::atoi(v.c_str());
+    else if (a == "--tile")
+      o.tile = std::atoi(v.c_str());
+    else if (a == "--components")
+      o.components = std::size_t(std::atol(v.c_str()));
+    else if (a == "--iterations")
+      o.iterations = std::atoi(v.c_str());
+    else if (a == "--threads")
+      o.threads = std::atoi(v.c_str());
+    else if (a == "--device")
+      o.device = v;
+    else
+      return false;
+  }
+  return o.tile > 0 && o.iterations > 0 && o.components > 0 &&
+         btfgmm::parse_device_choice(o.device).has_value();
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  Options o;
+  if (!parse(argc, argv, o)) {
+    std::fprintf(stderr,
+                 "usage: bench_gpu [--size S] [--tile T] [--components M] [--iterations K] "
+                 "[--threads N] [--device gpu|auto] [--no-cpu]\n");
+    return 2;
+  }
+  o.size = std::max(o.size, o.tile);
+  std::shared_ptr<btfgmm::ComputeDevice> device;
+  try {
+    device = btfgmm::open_compute_device(*btfgmm::parse_device_choice(o.device));
+  } catch (const btfgmm::Error& e) {
+    std::fprintf(stderr, "bench_gpu: %s\n", e.what());
+    return 3;
+  }
+  if (!device) {
+    std::fprintf(stderr, "bench_gpu: no GPU (device %s)\n", o.device.c_str());
+    return 3;
+  }
+  const btfgmm::SampleSet s = samples(o);
+  const double n = double(s.size());
+  const int threads = o.threads > 0 ? o.threads : omp_get_max_threads();
+  std::printf(
+      "EM: %d x %d tile of a generated corduroy BTF, 81 x 81 directions, N = %.0f "
+      "samples, M = %zu, %d iterations, the same start\nCPU: %d threads; GPU: %s\n\n",
+      o.tile, o.tile, n, o.components, o.iterations, threads, device->info().description().c_str());
+  std::printf(
+      "| device | s / iteration | E pass s / iteration | ns / (sample x component) | "
+      "s in all | final mean log-likelihood |\n|---|---|---|---|---|---|\n");
+  const Run gpu = run_em(o, s, device);
+  if (!o.cpu) {
+    print_row("GPU", gpu, n, o.components);
+    print_stages(o, s, gpu.mixture, *device, n);
+    return 0;
+  }
+  const Run cpu = run_em(o, s, nullptr);
+  print_row("CPU", cpu, n, o.components);
+  print_row("GPU", gpu, n, o.components);
+  double worst = 0.0;
+  const auto& a = cpu.result.log_likelihood;
+  const auto& b = gpu.result.log_likelihood;
+  for (std::size_t i = 0; i < std::min(a.size(), b.size()); ++i)
+    worst = std::max(worst, std::abs(b[i] - a[i]) / std::abs(a[i]));
+  std::printf(
+      "\nGPU / CPU: an iteration %.1fx faster, the E pass %.1fx; the log-likelihood at "
+      "every iteration within %.2e (relative)\n",
+      cpu.per_iteration / gpu.per_iteration, cpu.e_pass / gpu.e_pass, worst);
+  print_stages(o, s, cpu.mixture, *device, n);
+  if (worst > 1e-5 || a.size() != b.size()) {
+    std::printf("the GPU's log-likelihood differs from the CPU's\n");
+    return 1;
+  }
+  return 0;
+}
