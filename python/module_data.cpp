@@ -249,7 +249,8 @@ const char* fit_doc() {
                                                                            .objective = "-",
                                                                            .refine_steps = 1,
                                                                            .refine_seconds = 1,
-                                                                           .refine_epochs = 1});
+                                                                           .refine_epochs = 1,
+                                                                           .device = "-"});
     for (const FitOptionRule& rule : fit_option_rules())
       if (rule.methods != "all" &&
           std::find(keywords.begin(), keywords.end(), rule.field) != keywords.end())
