@@ -1,8 +1,8 @@
 // A vectorisable exp for float: Cody-Waite range reduction x = n ln2 + r, |r| <= ln2 / 2,
 // a degree-6 polynomial for exp(r) (Cephes' expf coefficients), and 2^n built in the
 // exponent bits. Inputs below -87.3 return 0 (the sums it feeds are normalised, and
-// exp(-87) is below float's normal range). Relative error <= 3 ulp over [-87.3, 88]
-// (tests/test_model.cpp measures it against std::exp in double).
+// exp(-87) is below float's normal range); NaN returns NaN. Relative error <= 3 ulp over
+// [-87.3, 88] (tests/test_model.cpp measures it against std::exp in double).
 #pragma once
 
 #include <cstdint>
@@ -13,7 +13,11 @@ namespace btfgmm::detail {
 inline float fast_exp(float x) {
   const float lo = -87.3f, hi = 88.0f;
   const bool under = x < lo;
-  x = x < lo ? lo : (x > hi ? hi : x);
+  // NaN is returned as it came; the range reduction takes the clamp's lower end for it, so
+  // that no NaN is converted to an integer below.
+  const bool not_a_number = x != x;
+  const float given = x;
+  x = x >= lo ? (x > hi ? hi : x) : lo;
   // n = round(x / ln2), without a call: add and subtract 1.5 * 2^23.
   const float shifter = 12582912.0f;
   const float n = (x * 1.44269504088896341f + shifter) - shifter;
@@ -30,7 +34,7 @@ inline float fast_exp(float x) {
   float scale;
   std::memcpy(&scale, &e, sizeof scale);
   const float y = p * scale;
-  return under ? 0.0f : y;
+  return under ? 0.0f : (not_a_number ? given : y);
 }
 
 }  // namespace btfgmm::detail
