@@ -11,6 +11,7 @@
 #include "model/em_gpu.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <cstring>
 
 #include "btfgmm/core/error.hpp"
