@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <atomic>
+#include <chrono>
 #include <filesystem>
 #include <optional>
 #include <string>
@@ -123,17 +124,63 @@ namespace {
 // progress function raises) stops the fit and is raised once it has stopped.
 class FitWatch {
  public:
-  explicit FitWatch(py::object progress) : progress_(std::move(progress)) {}
+  FitWatch(py::object progress, bool quiet) : progress_(std::move(progress)), quiet_(quiet) {}
   ~FitWatch() {
     Py_XDECREF(type_);
     Py_XDECREF(value_);
     Py_XDECREF(trace_);
   }
-  void poll(double fraction, std::string_view stage) {
+  // After EM's iteration `e`: the caller's function, or a line on sys.stderr.
+  void iteration(const EmProgress& e) {
+    poll(double(e.iteration) / double(e.max_iterations), "EM", [&] {
+      return fmt::format("fit: EM iteration {}/{}, L = {:.6f}, {}\n", e.iteration, e.max_iterations,
+                         e.log_likelihood, human_seconds(e.seconds));
+    });
+  }
+  // Another stage (the refinement, another method's fit): a line every 5 seconds at most.
+  void stage(double fraction, std::string_view stage) {
+    poll(fraction, stage, [&] {
+      const double now = seconds_since(start_);
+      if (fraction < 1.0 && stage == last_stage_ && now < printed_at_ + 5.0) return std::string();
+      printed_at_ = now;
+      last_stage_ = std::string(stage);
+      return fmt::format("fit: {} {:.0f} %, {}\n", stage, 100.0 * fraction, human_seconds(now));
+    });
+  }
+  const std::atomic<bool>* stop() const { return &stop_; }
+  // With the GIL held: a model the fit completed although stopped (a mixture stopped in its
+  // refinement keeps the lowest error met, as the command does) is kept, with a warning, where
+  // Ctrl-C stopped it; otherwise the Python error that stopped the fit is raised.
+  void raise_if_stopped(bool completed) {
+    if (!type_) return;
+    if (completed && PyErr_GivenExceptionMatches(type_, PyExc_KeyboardInterrupt)) {
+      Py_CLEAR(type_);
+      Py_CLEAR(value_);
+      Py_CLEAR(trace_);
+      if (PyErr_WarnEx(PyExc_RuntimeWarning,
+                       "fit: stopped by Ctrl-C in the refinement; the model of the lowest "
+                       "held-out error met is returned",
+                       1) != 0)
+        throw py::error_already_set();
+      return;
+    }
+    PyErr_Restore(type_, value_, trace_);
+    type_ = value_ = trace_ = nullptr;
+    throw py::error_already_set();
+  }
+
+ private:
+  template <class Line>
+  void poll(double fraction, std::string_view stage, Line&& line) {
     py::gil_scoped_acquire gil;
     if (stop_) return;
     try {
-      if (!progress_.is_none()) progress_(fraction, std::string(stage));
+      if (!progress_.is_none()) {
+        progress_(fraction, std::string(stage));
+      } else if (!quiet_) {
+        const std::string text = line();
+        if (!text.empty()) py::module_::import("sys").attr("stderr").attr("write")(text);
+      }
       if (PyErr_CheckSignals() != 0) throw py::error_already_set();
     } catch (py::error_already_set& e) {
       e.restore();
@@ -141,17 +188,12 @@ class FitWatch {
       stop_ = true;
     }
   }
-  const std::atomic<bool>* stop() const { return &stop_; }
-  // With the GIL held: the Python error that stopped the fit, raised.
-  void raise_if_stopped() {
-    if (!type_) return;
-    PyErr_Restore(type_, value_, trace_);
-    type_ = value_ = trace_ = nullptr;
-    throw py::error_already_set();
-  }
 
- private:
   py::object progress_;
+  bool quiet_ = false;
+  Clock::time_point start_ = Clock::now();
+  double printed_at_ = -1e9;
+  std::string last_stage_;
   std::atomic<bool> stop_{false};
   PyObject *type_ = nullptr, *value_ = nullptr, *trace_ = nullptr;
 };
@@ -161,7 +203,7 @@ Model fit(const py::object& data, const std::string& method, const py::object& t
           std::optional<double> epsilon, std::uint64_t seed, int threads,
           std::optional<std::string> precision, std::optional<std::string> objective, int levels,
           int refine_steps, double refine_seconds, int refine_epochs, const std::string& device,
-          const py::object& progress) {
+          const py::object& progress, bool quiet) {
   const DataArg d = data_arg(data, "fit");
   if (d.tile && !tile.is_none())
     throw Error(Error::Kind::kArgument,
@@ -184,12 +226,10 @@ Model fit(const py::object& data, const std::string& method, const py::object& t
   o.refine_epochs = refine_epochs;
   o.device = device == "auto" ? "" : device;
   const std::string text = tile_text(tile);
-  FitWatch watch(progress);
+  FitWatch watch(progress, quiet);
   FitProgress p;
-  p.iteration = [&](const EmProgress& e) {
-    watch.poll(double(e.iteration) / double(e.max_iterations), "EM");
-  };
-  p.progress = [&](double fraction, std::string_view stage) { watch.poll(fraction, stage); };
+  p.iteration = [&](const EmProgress& e) { watch.iteration(e); };
+  p.progress = [&](double fraction, std::string_view stage) { watch.stage(fraction, stage); };
   p.stop = watch.stop();
   std::unique_ptr<Representation> r;
   try {
@@ -198,10 +238,10 @@ Model fit(const py::object& data, const std::string& method, const py::object& t
     const Tile t = d.tile ? *d.tile : choose_tile(*src, text, "tile").tile;
     r = fit_representation(o, d.path, std::move(src), t, p);
   } catch (const Error&) {
-    watch.raise_if_stopped();  // a method's fit stops by throwing
+    watch.raise_if_stopped(false);  // a method's fit stops by throwing
     throw;
   }
-  watch.raise_if_stopped();
+  watch.raise_if_stopped(r != nullptr);
   if (!r) throw Error(Error::Kind::kArgument, "fit: the fit was stopped");
   Model m;
   m.rep = std::move(r);
@@ -237,7 +277,11 @@ const char* fit_doc() {
         "Fits a model to a BTF (a path, or a Btf from read_btf: its tile) with the options and "
         "defaults of `btfgmm fit` (0 or None: the method's default); the same data, options "
         "and seed give the model `btfgmm fit` writes. progress(fraction, stage) is called as it "
-        "goes; Ctrl-C stops it (KeyboardInterrupt). Options of some methods only:";
+        "goes; without it a line on sys.stderr tells each EM iteration and every 5 s of the "
+        "other stages, unless quiet=True. Ctrl-C stops it: KeyboardInterrupt, but in the "
+        "mixture's refinement for the prediction, where the model of the lowest held-out error "
+        "met is returned (a RuntimeWarning says so), as the command writes it. Options of some "
+        "methods only:";
     const std::vector<std::string_view> keywords = given_fields(FitOptions{.method = "-",
                                                                            .components = 1,
                                                                            .clusters = 1,
@@ -270,7 +314,7 @@ void bind_fit(py::module_& m) {
         py::arg("seed") = 1, py::arg("threads") = 0, py::arg("precision") = py::none(),
         py::arg("objective") = py::none(), py::arg("levels") = 0, py::arg("refine_steps") = 0,
         py::arg("refine_seconds") = 0.0, py::arg("refine_epochs") = 0, py::arg("device") = "auto",
-        py::arg("progress") = py::none(), fit_doc());
+        py::arg("progress") = py::none(), py::arg("quiet") = false, fit_doc());
   m.def("compare", &compare, py::arg("data"), py::arg("model"), py::kw_only(),
         py::arg("force") = false,
         "Measures a model against the BTF it was fitted to (a path, or a Btf from read_btf: "
