@@ -19,6 +19,16 @@ struct TileArguments {
   bool json = false;
 };
 
+// What a seam error means for a tile repeated on a surface, in words.
+const char* seam_verdict(double error) {
+  if (error < 0.5) return "the seam is hard to see";
+  if (error < 1.0) return "a faint seam, less than neighbouring pixels differ";
+  if (error < 2.0)
+    return "a visible seam (more than neighbouring pixels differ): try other sizes (--size "
+           "20-28x20-28) for a better one";
+  return "a plain seam: this material may not repeat at this size; try others (--size 16-48x16-48)";
+}
+
 nlohmann::json candidate_json(const btfgmm::TileCandidate& c) {
   const btfgmm::Tile& t = c.tile;
   return {{"tile", {t.x, t.y, t.width, t.height}},
@@ -63,10 +73,11 @@ void run_tile(const TileArguments& o) {
   }
   fmt::print(stderr,
              "seam error {:.3f} (left-right {:.3f}, top-bottom {:.3f}; 0 = repeats as the texture "
-             "continues, 1 = as different as neighbouring pixels), {:.2f} levels RMS; {} "
+             "continues, 1 = as different as neighbouring pixels): {}; {:.2f} levels RMS; {} "
              "candidates on {} images in {}\nfit it with: btfgmm fit {} --tile {},{},{},{} ...\n",
-             r.seam.total, r.seam.left_right, r.seam.top_bottom, r.seam.rms_levels, r.candidates,
-             r.images, human_seconds(seconds_since(t0)), o.input, t.x, t.y, t.width, t.height);
+             r.seam.total, r.seam.left_right, r.seam.top_bottom, seam_verdict(r.seam.total),
+             r.seam.rms_levels, r.candidates, r.images, human_seconds(seconds_since(t0)), o.input,
+             t.x, t.y, t.width, t.height);
 }
 
 }  // namespace
