@@ -234,23 +234,21 @@ void add_refinement_options(CLI::App& f, FitArguments& fit) {
   f.add_option("--refine-steps", fit.refine_steps,
                methods_of("refine_steps") +
                    ", --objective prediction: exactly this many Adam steps of the refinement "
-                   "(default: until the error on the held-out samples stops falling, "
-                   "docs/ALGORITHM.md)")
+                   "(default: until the error on the held-out samples stops falling, at most " +
+                   fmt::to_string(btfgmm::kDefaultRefineSteps) + ", docs/ALGORITHM.md)")
       ->check(table_range<int>("refine_steps"));
   f.add_option("--refine-seconds", fit.refine_seconds,
                methods_of("refine_seconds") +
-                   fmt::format(", --objective prediction: the most seconds the refinement "
-                               "takes (default M / {:g}: {:g} at M = 600); the lowest held-out "
-                               "error met is kept",
-                               1.0 / btfgmm::kDefaultRefineSecondsPerComponent,
-                               btfgmm::default_refine_seconds(600)))
+                   ", --objective prediction: the most seconds the refinement takes, in place of "
+                   "the default bound in steps; the lowest held-out error met is kept. The model "
+                   "then depends on the machine and its load (its provenance says so)")
       ->check(table_range<double>("refine_seconds"));
   f.add_option("--refine-epochs", fit.refine_epochs,
                methods_of("refine_epochs") +
                    ", --objective prediction: the most passes over the tile's samples the "
-                   "refinement takes, and no bound on its time unless --refine-seconds gives "
-                   "one: the same model on any machine at any load (default: bounded in time); "
-                   "with --budget, of each mixture it fits")
+                   "refinement takes, in place of the default bound in steps (default: at most " +
+                   fmt::to_string(btfgmm::kDefaultRefineSteps) +
+                   " steps); with --budget, of each mixture it fits")
       ->check(table_range<int>("refine_epochs"));
 }
 

@@ -366,13 +366,13 @@ void register_sweep_command(CLI::App& app, Commands& commands) {
   const FitOptionRule& epochs = fit_option_rule("refine_epochs");
   c->add_option("--refine-seconds", opt->refine_seconds,
                 "The most seconds each Gaussian mixture's refinement for the prediction takes, "
-                "as fit --refine-seconds (default: M / 6)")
+                "as fit --refine-seconds (default: bounded in steps, not in time); the models "
+                "then depend on the machine and its load")
       ->check(CLI::Range(seconds.min, seconds.max));
   c->add_option("--refine-epochs", opt->refine_epochs,
                 "The most passes over the tile's samples each Gaussian mixture's refinement "
-                "takes, and no bound on its time unless --refine-seconds gives one, as fit "
-                "--refine-epochs: the same models, and the same table, on any machine at any "
-                "load (default: bounded in time)")
+                "takes, as fit --refine-epochs (default: at most " +
+                    std::to_string(btfgmm::kDefaultRefineSteps) + " Adam steps)")
       ->check(CLI::Range(int(epochs.min), int(epochs.max)));
   c->add_option("--seed", opt->seed, "Seed of every fit's random start")->capture_default_str();
   c->add_option("--threads", opt->threads, "Threads (0: all cores)")

@@ -122,17 +122,21 @@ void print_refinement(const btfgmm::GradientProgress& p, double& printed_at) {
   const bool last = p.fraction >= 1.0;
   if (p.step > 1 && !last && p.elapsed < printed_at + 5.0) return;
   printed_at = p.elapsed;
-  const std::string bound =
-      p.steps > 0 ? fmt::format("step {}/{}", p.step, p.steps) : fmt::format("step {}", p.step);
-  const std::string most = p.seconds >= btfgmm::kMaxRefineSeconds
-                               ? fmt::format("{} epochs", p.max_epochs)
-                               : human_seconds(p.seconds);
+  const int of = p.steps > 0 ? p.steps : p.max_steps;
+  const std::string step =
+      of > 0 ? fmt::format("step {}/{}", p.step, of) : fmt::format("step {}", p.step);
+  // The time left, from the share done so far (the stopping rule may end the steps sooner).
+  const std::string left = p.step > 0 && !last && p.fraction > 0.0
+                               ? fmt::format(", at most about {} left",
+                                             human_seconds(p.elapsed * (1.0 / p.fraction - 1.0)))
+                               : std::string();
   fmt::print(stderr,
-             "refining for the prediction: epoch {:>3} {:<12} validation RMSE {:.3f} levels "
-             "(lowest {:.3f})  training RMSE {}  {} of at most {}\n",
-             p.epoch, bound, p.validation_rmse, p.best_validation_rmse,
+             "refining for the prediction: epoch {:>3} {:<12} held-out RMSE {:.3f} levels (lowest "
+             "{:.3f}), "
+             "training RMSE {}  {}{}\n",
+             p.epoch, step, p.validation_rmse, p.best_validation_rmse,
              p.step > 0 ? fmt::format("{:.3f}", p.training_rmse) : std::string("(no step yet)"),
-             human_seconds(p.elapsed), most);
+             human_seconds(p.elapsed), left);
 }
 
 // Where EM runs: "on the CPU" or "on the GPU NAME (Vulkan, DRIVER)".
@@ -140,31 +144,60 @@ std::string device_words(const btfgmm::FitPlan& p) {
   return p.device == "cpu" ? "on the CPU" : "on the GPU " + p.device;
 }
 
+// The refinement's bounds in words: "at most 2400 Adam steps (about 10 epochs of 237)".
+std::string refinement_bounds(const btfgmm::FitPlan& p) {
+  const std::size_t per_epoch = std::max<std::size_t>(p.refinement.steps_per_epoch, 1);
+  std::string b;
+  if (p.refinement_steps > 0)
+    b = fmt::format("{} Adam steps (--refine-steps)", p.refinement_steps);
+  else if (p.refinement_max_steps > 0)  // or the epochs' bound, where it ends them first
+    b = fmt::format("at most {} Adam steps (about {:.{}f} epochs of {} steps)", p.refinement.steps,
+                    double(p.refinement.steps) / double(per_epoch),
+                    p.refinement.steps < 10 * std::int64_t(per_epoch) ? 1 : 0, per_epoch);
+  else if (p.refinement_epochs > 0)
+    b = fmt::format("at most {} epochs of {} Adam steps (--refine-epochs)", p.refinement_epochs,
+                    per_epoch);
+  if (p.refinement_seconds > 0)
+    b += fmt::format(
+        "{}at most {} (--refine-seconds: the model then depends on the machine and "
+        "its load)",
+        b.empty() ? "" : ", ", human_seconds(p.refinement_seconds));
+  return b;
+}
+
+// What the refinement will take, timed on the mixture it starts from.
+std::string refinement_time(const btfgmm::RefinementEstimate& e) {
+  return fmt::format("about {} (a step {}, the colour refits {})", human_seconds(e.seconds),
+                     human_seconds(e.step_seconds), human_seconds(e.colour_refit_seconds));
+}
+
 // What the fit will take, said before EM: where EM runs, its iterations at the time one
-// takes (timed on a few lights), then the refinement's bound.
+// takes (timed on a few lights from EM's start), then the refinement's bounds and time.
 void print_plan(const btfgmm::FitPlan& p) {
-  const double em = p.em_iteration_seconds * double(p.iterations);
-  if (p.refinement_seconds > 0 && p.refinement_epochs > 0 &&
-      p.refinement_seconds >= btfgmm::kMaxRefineSeconds) {
-    fmt::print(stderr,
-               "plan: EM {}, at most {} iterations of M = {} at about {} each (timed on a few "
-               "lights): about {}; then the refinement for the prediction, at most {} epochs "
-               "(--refine-epochs; each a pass over the tile's samples, several EM iterations' "
-               "time)\n",
-               device_words(p), p.iterations, p.components, human_seconds(p.em_iteration_seconds),
-               human_seconds(em), p.refinement_epochs);
-    return;
+  const double em = p.em_seconds;
+  std::string refinement;
+  if (p.refines) {
+    refinement = fmt::format("; then the refinement for the prediction, {}, {}",
+                             refinement_bounds(p), refinement_time(p.refinement));
+    if (p.refinement.colour_refit_seconds > std::max(em, 10.0))
+      refinement += fmt::format(
+          "; at M = {} the colour refits (their normal equations grow as M^2) take more than EM: "
+          "fewer components (-M) cost far less",
+          p.components);
   }
-  const std::string refinement =
-      p.refinement_seconds > 0
-          ? fmt::format("; then the refinement for the prediction, at most {} (--refine-seconds)",
-                        human_seconds(p.refinement_seconds))
-          : std::string();
   fmt::print(stderr,
-             "plan: EM {}, at most {} iterations of M = {} at about {} each (timed on a few "
-             "lights): about {}{}; in all at most about {}\n",
+             "plan: EM {}, at most {} iterations of M = {}, the first about {} (timed on a few "
+             "lights), later ones less: about {}{}; in all about {}\n",
              device_words(p), p.iterations, p.components, human_seconds(p.em_iteration_seconds),
-             human_seconds(em), refinement, human_seconds(em + p.refinement_seconds));
+             human_seconds(em), refinement,
+             human_seconds(em + (p.refines ? p.refinement.seconds : 0.0)));
+}
+
+// Before the refinement: its time, timed again on EM's mixture.
+void print_refinement_plan(const btfgmm::RefinementEstimate& e) {
+  fmt::print(stderr,
+             "refining for the prediction: at most {} Adam steps, {}; first the colour refit\n",
+             e.steps, refinement_time(e));
 }
 
 // One EM iteration; the time left is estimated from this run's iterations. The first
@@ -214,6 +247,7 @@ void print_written(const std::string& out, const btfgmm::FitOutcome& fit, const 
                r->steps, r->epochs,
                r->timed_out     ? ", the time bound"
                : r->stopped     ? ", stopped"
+               : r->step_bound  ? ", the step bound"
                : r->epoch_bound ? ", the epoch bound"
                                 : "",
                human_seconds(r->seconds), btfgmm::prediction_rmse(r->error_em, r->samples),
@@ -269,7 +303,10 @@ void run_mixture_fit(const FitArguments& options,
     log = open_iteration_log(o, r);
     stop_on_signals.emplace();
   };
-  if (!o.quiet) observer.planned = print_plan;
+  if (!o.quiet) {
+    observer.planned = print_plan;
+    observer.refinement_planned = print_refinement_plan;
+  }
   observer.iteration = [&](const btfgmm::EmProgress& p) {
     if (!o.quiet) print_iteration(p, start);
     if (log) log->add({p.log_likelihood, p.seconds, std::uint32_t(p.components)});

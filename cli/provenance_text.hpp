@@ -73,8 +73,13 @@ inline void print_provenance_lines(const btfgmm::Provenance& p, const btfgmm::Ti
   for (const auto& [k, v] : p.fit.settings)
     settings += fmt::format("{}{} {}", settings.empty() ? "" : ", ", k, v);
   fmt::print("  fit settings {}\n", settings);
-  fmt::print("  fit time     {}{}\n", btfgmm::human_seconds(p.fit.seconds),
-             p.fit.runs > 1 ? fmt::format(" in {} runs (resumed or continued)", p.fit.runs) : "");
+  // Files written since fits became reproducible record no time (0): the same file at any load.
+  const std::string runs =
+      p.fit.runs > 1 ? fmt::format(" in {} runs (continued)", p.fit.runs) : std::string();
+  if (p.fit.seconds > 0)
+    fmt::print("  fit time     {}{}\n", btfgmm::human_seconds(p.fit.seconds), runs);
+  else
+    fmt::print("  fit time     not recorded (a model file is the same at any load){}\n", runs);
   const auto& its = p.fit.iterations;
   if (!its.empty())
     fmt::print(

@@ -37,6 +37,7 @@ BUILTINS = {
     "export", "false", "fi", "for", "function", "getopts", "if", "in", "local", "printf",
     "pwd", "read", "readonly", "return", "select", "set", "shift", "source", "test", "then",
     "time", "trap", "true", "type", "ulimit", "umask", "unset", "until", "wait", "while",
+    "kill",
 }
 
 # Program -> the Debian package that installs it. Where a program is run through a variable
@@ -50,7 +51,7 @@ PROGRAMS = {
     "id": "coreutils", "ln": "coreutils", "ls": "coreutils", "mkdir": "coreutils",
     "mktemp": "coreutils", "mv": "coreutils", "nice": "coreutils", "nproc": "coreutils",
     "realpath": "coreutils", "rm": "coreutils", "sh": "dash", "sleep": "coreutils",
-    "sort": "coreutils", "tail": "coreutils", "tee": "coreutils", "timeout": "coreutils",
+    "seq": "coreutils", "sort": "coreutils", "stat": "coreutils", "tail": "coreutils", "tee": "coreutils", "timeout": "coreutils",
     "touch": "coreutils", "tr": "coreutils", "uniq": "coreutils", "wc": "coreutils",
     "bash": "bash",
     "dpkg-query": "dpkg",

@@ -67,15 +67,22 @@ TEST_F(Cli, GenerateInfoFitInfoEvalDecode) {
   EXPECT_NE(r.out.find("iteration   3/3"), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("ETA"), std::string::npos) << r.out;
   // Before EM, what the fit will take.
-  EXPECT_LT(r.out.find("plan: EM on the CPU, at most 3 iterations of M = 5 at about "),
+  EXPECT_LT(r.out.find("plan: EM on the CPU, at most 3 iterations of M = 5, the first about "),
             r.out.find("iteration   1/3"))
       << r.out;
-  EXPECT_NE(r.out.find("then the refinement for the prediction, at most 30.0 s"), std::string::npos)
+  // The step bound, here the 1,000 epochs' (one minibatch an epoch on this tile).
+  EXPECT_NE(r.out.find("then the refinement for the prediction, at most 1000 Adam steps (about "
+                       "1000 epochs of 1 steps)"),
+            std::string::npos)
+      << r.out;
+  // Before the refinement, its time on EM's mixture.
+  EXPECT_NE(r.out.find("refining for the prediction: at most 1000 Adam steps, about "),
+            std::string::npos)
       << r.out;
   // The refinement for the prediction: its steps, then what it gained.
   EXPECT_NE(r.out.find("refining for the prediction: epoch   1 step 1"), std::string::npos)
       << r.out;
-  EXPECT_NE(r.out.find("validation RMSE "), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("held-out RMSE "), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("training RMSE "), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("refined for the prediction in "), std::string::npos) << r.out;
   r = run("fit " + p("btf") +
@@ -126,10 +133,10 @@ TEST_F(Cli, ARefinementBoundInEpochsGivesTheSameModelOnAnyMachine) {
   const std::string fit = "fit " + p("btf") + " -M 5 --iterations 3 --seed 2 --refine-epochs 2 ";
   r = run(fit + "--threads 2 -o " + p("a.btfgmm"));
   ASSERT_EQ(r.status, 0) << r.out;
-  EXPECT_NE(r.out.find("then the refinement for the prediction, at most 2 epochs (--refine-epochs"),
+  EXPECT_NE(r.out.find("then the refinement for the prediction, at most 2 epochs of "),
             std::string::npos)
       << r.out;
-  EXPECT_NE(r.out.find("of at most 2 epochs"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("Adam steps (--refine-epochs)"), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("(2 epochs, the epoch bound,"), std::string::npos) << r.out;
   r = run(fit + "--threads 1 -o " + p("b.btfgmm"));
   ASSERT_EQ(r.status, 0) << r.out;

@@ -5,11 +5,13 @@
 #include <unistd.h>
 #include <zlib.h>
 
+#include <algorithm>
 #include <atomic>
 #include <cmath>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <optional>
 #include <string>
 
@@ -92,11 +94,11 @@ TEST(Provenance, RoundTripsThroughTheModelFile) {
   EXPECT_EQ(p.data.source.image_width, 32);
   EXPECT_EQ(p.data.content_hash, 0x0123456789abcdefull);
   EXPECT_EQ(p.fit.settings, m.provenance.fit.settings);
-  EXPECT_EQ(p.fit.seconds, 1.5);
+  EXPECT_EQ(p.fit.seconds, 0.0);  // no time is written: the file is the same at any load
   EXPECT_EQ(p.fit.runs, 2u);
   ASSERT_EQ(p.fit.iterations.size(), 2u);
   EXPECT_EQ(p.fit.iterations[1].log_likelihood, -11.0);
-  EXPECT_EQ(p.fit.iterations[1].seconds, 0.5);
+  EXPECT_EQ(p.fit.iterations[1].seconds, 0.0);
   EXPECT_EQ(serialize_model(back), bytes);
   // Through the registry, as any method: the same provenance, the same bytes.
   const auto r = read_representation(bytes, "p.btfgmm");
@@ -226,12 +228,23 @@ TEST(Provenance, EveryMethodsFileRecordsItsDataAndFit) {
     EXPECT_EQ(p.fit.settings.front(),
               std::make_pair(std::string("method"), std::string(method.name)));
     EXPECT_EQ(p.fit.settings.back().first, "size");
-    EXPECT_GT(p.fit.seconds, 0.0) << method.name;
+    // The fit's time is the run's (in memory), not the file's: the same file at any load.
+    EXPECT_GT(fitted->provenance().fit.seconds, 0.0) << method.name;
+    EXPECT_EQ(p.fit.seconds, 0.0) << method.name;
+    EXPECT_EQ(representation_file_bytes(*fit_and_record(method, tile, s, fp)),
+              representation_file_bytes(*fitted))
+        << method.name;
     EXPECT_EQ(p.fit.iterations.size(), method.name == "gm" ? 3u : 0u) << method.name;
   }
 }
 
 // Two BTFs on disk for run_fit (made once for all the tests), and a folder of each test's own.
+// A file's bytes.
+std::string file_bytes(const fs::path& f) {
+  std::ifstream in(f, std::ios::binary);
+  return std::string(std::istreambuf_iterator<char>(in), {});
+}
+
 class ProvenanceFit : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
@@ -268,6 +281,11 @@ TEST_F(ProvenanceFit, AFitRecordsItsDataAndItsLog) {
   const BtfModel m = load_model(dir_ / "m.btfgmm");
   const Provenance& p = m.provenance;
   ASSERT_TRUE(p.recorded);
+  // Neither threads nor processes are settings: the model is the same with any number.
+  for (const auto& [name, value] : p.fit.settings) {
+    EXPECT_NE(name, "threads");
+    EXPECT_NE(name, "processes");
+  }
   EXPECT_EQ(p.data.source.name, (data_ / "btf").string());
   EXPECT_EQ(p.data.source.image_width, 8);
   const Btf tile = BtfSource::open(data_ / "btf").load({.x = 1, .y = 2, .width = 6, .height = 5});
@@ -284,8 +302,12 @@ TEST_F(ProvenanceFit, AFitRecordsItsDataAndItsLog) {
   for (int i = 0; i < 3; ++i)
     EXPECT_EQ(p.fit.iterations[i].log_likelihood, state.result.log_likelihood[i]);
   EXPECT_EQ(p.fit.iterations[2].components, 8u);
-  EXPECT_GE(p.fit.iterations[2].seconds, p.fit.iterations[0].seconds);
-  EXPECT_GE(p.fit.seconds, p.fit.iterations[2].seconds);
+  // The file records no time (the same file at any load); the fit in memory has its times.
+  EXPECT_EQ(p.fit.iterations[2].seconds, 0.0);
+  EXPECT_EQ(p.fit.seconds, 0.0);
+  EXPECT_GT(f.model.provenance.fit.seconds, 0.0);
+  EXPECT_GE(f.model.provenance.fit.iterations[2].seconds,
+            f.model.provenance.fit.iterations[0].seconds);
   EXPECT_NE(std::find(p.fit.settings.begin(), p.fit.settings.end(),
                       std::make_pair(std::string("seed"), std::string("4"))),
             p.fit.settings.end());
@@ -340,7 +362,8 @@ TEST_F(ProvenanceFit, AFitForThePredictionRecordsItsRefinement) {
   EXPECT_EQ(again.refinement->steps, f.refinement->steps);
   EXPECT_EQ(again.model.mixture.mean, f.model.mixture.mean);
   EXPECT_EQ(again.model.mixture.var, f.model.mixture.var);
-  EXPECT_FALSE(fs::exists(s.checkpoint));  // gone with the model written
+  EXPECT_FALSE(fs::exists(s.checkpoint));                          // gone with the model written
+  EXPECT_EQ(file_bytes(r.output), file_bytes(dir_ / "m.btfgmm"));  // the very same file
   EXPECT_NE(m.provenance.fit.settings.back().second.find(" (stopped); validation RMSE "),
             std::string::npos)
       << m.provenance.fit.settings.back().second;
@@ -387,6 +410,10 @@ TEST_F(ProvenanceFit, AFitStatesItsPlanBeforeEm) {
   EXPECT_GT(plan->em_iteration_seconds, 0.0);
   EXPECT_LT(plan->em_iteration_seconds, 30.0);  // 8 components on 6 x 5 pixels
   EXPECT_EQ(plan->refinement_seconds, 12.5);
+  EXPECT_EQ(plan->refinement_max_steps, 0);  // the bound in time replaces the one in steps
+  EXPECT_GT(plan->refinement.step_seconds, 0.0);
+  EXPECT_GT(plan->refinement.seconds, plan->refinement.colour_refit_seconds);
+  EXPECT_LE(plan->refinement.seconds, 12.5 + plan->refinement.colour_refit_seconds);
 
   std::atomic<bool> stop{false};
   FitRequest first = request(6, "em.btfgmm");
@@ -400,11 +427,46 @@ TEST_F(ProvenanceFit, AFitStatesItsPlanBeforeEm) {
   run_fit(rest, o);
   ASSERT_TRUE(plan);
   EXPECT_EQ(plan->iterations, 4);
-  EXPECT_EQ(plan->refinement_seconds, 0.0);  // EM alone
+  EXPECT_FALSE(plan->refines);  // EM alone
 
+  // Interrupted during EM and resumed, planned or not: the file of a fit never interrupted.
   run_fit(request(6, "unplanned.btfgmm"));
-  EXPECT_EQ(mixture_payload(load_model(dir_ / "em.btfgmm")),
-            mixture_payload(load_model(dir_ / "unplanned.btfgmm")));
+  EXPECT_EQ(file_bytes(dir_ / "em.btfgmm"), file_bytes(dir_ / "unplanned.btfgmm"));
+}
+
+// The default fit (EM, then the refinement bounded in steps) writes the same file, byte for
+// byte, with one thread and with two, and states its refinement's bound in steps before EM.
+TEST_F(ProvenanceFit, TheDefaultFitWritesTheSameFileWithAnyThreadCount) {
+  std::optional<FitPlan> plan;
+  FitObserver o;
+  o.planned = [&](const FitPlan& p) { plan = p; };
+  std::optional<RefinementEstimate> before;
+  o.refinement_planned = [&](const RefinementEstimate& e) { before = e; };
+  FitRequest one = request(3, "one.btfgmm");
+  one.config.objective = FitObjective::kPrediction;
+  one.config.em.threads = 1;
+  const FitOutcome a = run_fit(one, o);
+  ASSERT_TRUE(plan && before && a.refinement);
+  EXPECT_EQ(plan->refinement_max_steps, kDefaultRefineSteps);
+  // The step bound, or the epochs' where the tile has few minibatches (this one: 1 an epoch).
+  EXPECT_EQ(before->steps,
+            std::min<long long>(kDefaultRefineSteps, kMaxRefineEpochs * before->steps_per_epoch));
+  EXPECT_GT(before->steps_per_epoch, 0u);
+  EXPECT_LE(a.refinement->steps, kDefaultRefineSteps);
+  FitRequest two = one;
+  two.output = (dir_ / "two.btfgmm").string();
+  two.config.em.threads = 2;
+  run_fit(two);
+  EXPECT_EQ(file_bytes(dir_ / "one.btfgmm"), file_bytes(dir_ / "two.btfgmm"));
+  // Bounded in time, the provenance says the model depends on the machine.
+  FitRequest timed = one;
+  timed.output = (dir_ / "timed.btfgmm").string();
+  timed.config.refinement_seconds = 60;
+  run_fit(timed);
+  const auto& settings = load_model(timed.output).provenance.fit.settings;
+  EXPECT_NE(std::find(settings.begin(), settings.end(),
+                      std::make_pair(std::string("reproducible"), std::string(kBoundInTime))),
+            settings.end());
 }
 
 // An interrupted fit resumed with more iterations ends where one fit of that many does: the
@@ -426,7 +488,8 @@ TEST_F(ProvenanceFit, AResumeGoesOnToTheIterationsAskedFor) {
   const BtfModel resumed = load_model(dir_ / "part.btfgmm");
   EXPECT_EQ(mixture_payload(resumed), mixture_payload(whole));
   EXPECT_EQ(resumed.settings.max_iterations, 10u);
-  EXPECT_EQ(resumed.provenance.fit.runs, 2u);
+  EXPECT_EQ(resumed.provenance.fit.runs, 1u);  // one fit, interrupted and resumed
+  EXPECT_EQ(file_bytes(dir_ / "part.btfgmm"), file_bytes(dir_ / "whole.btfgmm"));
   ASSERT_EQ(resumed.provenance.fit.iterations.size(), 10u);
   for (int i = 0; i < 10; ++i)
     EXPECT_EQ(resumed.provenance.fit.iterations[i].log_likelihood,

@@ -20,6 +20,7 @@ std::string human_bytes(double b) {
 }
 
 std::string human_seconds(double s) {
+  if (s < 0.1) return fmt::format("{:.1f} ms", s * 1000.0);
   if (s < 60) return fmt::format("{:.1f} s", s);
   const long t = std::lround(s);
   if (t < 3600) return fmt::format("{}:{:02d}", t / 60, t % 60);

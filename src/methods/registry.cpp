@@ -2,7 +2,6 @@
 #include "btfgmm/methods/registry.hpp"
 
 #include <fmt/format.h>
-#include <omp.h>
 
 #include <algorithm>
 #include <array>
@@ -151,12 +150,14 @@ std::vector<std::pair<std::string, std::string>> settings_record(const MethodInf
   add("iterations", std::size_t(std::max(s.iterations, 0)));
   add("levels", std::size_t(std::max(s.levels, 0)));
   // The mixture's refinement's bounds, named as its own fit records them (model/fit.cpp).
-  if (s.refine_seconds > 0)
+  if (s.refine_seconds > 0) {
     out.emplace_back("refine seconds", fmt::format("{:g}", s.refine_seconds));
+    out.emplace_back("reproducible", std::string(kBoundInTime));
+  }
   add("refine epochs", std::size_t(std::max(s.refine_epochs, 0)));
   out.emplace_back("seed", std::to_string(s.seed));
   out.emplace_back("precision", std::string(to_string(s.encoding)));
-  out.emplace_back("threads", std::to_string(s.threads > 0 ? s.threads : omp_get_max_threads()));
+  // Not the threads: the model is the same with any number (docs/FORMAT.md, "Provenance").
   return out;
 }
 

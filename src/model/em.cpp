@@ -507,20 +507,13 @@ EmResult fit_em(const SampleSet& s, ProductMixture& mix, const EmConfig& config,
   return result;
 }
 
-double estimate_em_iteration_seconds(const SampleSet& s, std::size_t components, int threads,
+double estimate_em_iteration_seconds(const SampleSet& s, const ProductMixture& start, int threads,
                                      const std::shared_ptr<ComputeDevice>& device) {
-  check_em_size(s, components);
+  check_em_size(s, start.size());
   const std::size_t held = s.held_lights();
   const std::size_t probe = std::clamp<std::size_t>((held + 31) / 32, 1, held);
   const SampleSet p = first_lights(s, probe);
-  // M equal components over the whole set: none is negligible, none is skipped.
-  ProductMixture mix;
-  mix.resize(components);
-  for (std::size_t m = 0; m < components; ++m) {
-    mix.weight[m] = 1.0 / double(components);
-    mix.mean[m].fill(0.0);
-    mix.var[m].fill(1.0);
-  }
+  ProductMixture mix = start;
   const int n = resolve_threads(threads);
   const Periods periods = detail::tile_periods(p, true);
   auto at = Clock::now();
@@ -546,6 +539,20 @@ double estimate_em_iteration_seconds(const SampleSet& s, std::size_t components,
   detail::m_step(mix, c->ss, double(s.size()), defaults.variance_floor,
                  defaults.min_component_samples, periods);
   return tables + per_light * double(held) + seconds_from(at);
+}
+
+double estimate_em_iteration_seconds(const SampleSet& s, std::size_t components, int threads,
+                                     const std::shared_ptr<ComputeDevice>& device) {
+  check_em_size(s, components);
+  // M equal components over the whole set: none is negligible, none is skipped.
+  ProductMixture mix;
+  mix.resize(components);
+  for (std::size_t m = 0; m < components; ++m) {
+    mix.weight[m] = 1.0 / double(components);
+    mix.mean[m].fill(0.0);
+    mix.var[m].fill(1.0);
+  }
+  return estimate_em_iteration_seconds(s, mix, threads, device);
 }
 
 double mean_log_likelihood(const SampleSet& s, const ProductMixture& mix, int threads,

@@ -3,7 +3,6 @@
 #include "btfgmm/model/fit.hpp"
 
 #include <fmt/format.h>
-#include <omp.h>
 
 #include <algorithm>
 #include <cstdlib>
@@ -88,8 +87,9 @@ std::string device_text(const std::shared_ptr<ComputeDevice>& device) {
 }
 
 // The settings of a mixture's fit as its provenance records them.
+// Neither the threads nor the processes are recorded: the model is the same with any number of
+// either, and so is its file (docs/FORMAT.md, "Provenance").
 std::vector<std::pair<std::string, std::string>> settings_record(const FitRequest& r) {
-  const int threads = r.config.em.threads > 0 ? r.config.em.threads : omp_get_max_threads();
   std::vector<std::pair<std::string, std::string>> s = {
       {"method", "gm"},
       {"components", fmt::to_string(r.config.components)},
@@ -98,13 +98,13 @@ std::vector<std::pair<std::string, std::string>> settings_record(const FitReques
       {"objective", std::string(objective_name(r.config.objective))},
       {"seed", fmt::to_string(r.config.seed)},
       {"precision", std::string(precision_name(r.precision))},
-      {"threads", fmt::to_string(threads)},
-      {"processes", fmt::to_string(r.processes ? r.processes->size() : 1)},
       {"device", device_text(open_compute_device(r.config.device))}};
   if (r.config.refinement_steps > 0)  // --refine-steps, for --continue to refine alike
     s.emplace_back("refine steps", fmt::to_string(r.config.refinement_steps));
-  if (r.config.refinement_seconds > 0)  // --refine-seconds, for --continue alike
+  if (r.config.refinement_seconds > 0) {  // --refine-seconds, for --continue alike
     s.emplace_back("refine seconds", fmt::format("{:g}", r.config.refinement_seconds));
+    s.emplace_back("reproducible", std::string(kBoundInTime));
+  }
   if (r.config.refinement_epochs > 0)  // --refine-epochs, for --continue alike
     s.emplace_back("refine epochs", fmt::to_string(r.config.refinement_epochs));
   return s;
@@ -232,6 +232,7 @@ void record_provenance(const FitRequest& r, const FitCheckpoint& job, DataFinger
 std::pair<std::string, std::string> refinement_record(const PredictionRefinement& r) {
   const char* end = r.stopped       ? " (stopped)"
                     : r.timed_out   ? " (time bound)"
+                    : r.step_bound  ? " (step bound)"
                     : r.epoch_bound ? " (epoch bound)"
                                     : "";
   return {"refinement",
@@ -258,17 +259,58 @@ void save_finished(const FitRequest& r, FitOutcome& out) {
 
 namespace {
 
-// fit_model on a sample set of `tile`.
+// EM's first iteration, from components as wide as M equal cells, weighs most of them for
+// every sample; later ones, narrower, skip more as negligible: on 25 x 25 tiles of knit and
+// corduroy at M = 200 and 600 (2 cores) the 40 iterations took 14 to 21 times the first's
+// estimate, an iteration after the first about 0.4 of it (docs/BENCHMARKS.md). The GPU's E
+// pass skips none: each iteration takes the first's time.
+constexpr double kLaterIterationShare = 0.4;
+
+// The seconds of `iterations` EM iterations from a start whose first is timed at `first`.
+double em_seconds(double first, int iterations, bool fresh, bool on_gpu) {
+  if (iterations <= 0) return 0.0;
+  const double later = fresh && !on_gpu ? kLaterIterationShare : 1.0;
+  return first * (1.0 + double(iterations - 1) * later);
+}
+
+// The fit's plan on its samples, from the mixture EM starts from: EM's iterations left after
+// `done`, one timed on a few lights, and the refinement's bounds and time.
+FitPlan plan_fit(const SampleSet& samples, const FitConfig& config, const ProductMixture& start,
+                 int done, const std::shared_ptr<ComputeDevice>& device) {
+  FitPlan plan{.components = config.components,
+               .iterations = std::max(0, config.em.max_iterations - done),
+               .em_iteration_seconds =
+                   estimate_em_iteration_seconds(samples, start, config.em.threads, device),
+               .refines = config.objective == FitObjective::kPrediction,
+               .device = device_text(device)};
+  plan.em_seconds =
+      em_seconds(plan.em_iteration_seconds, plan.iterations, done == 0, device != nullptr);
+  if (!plan.refines) return plan;
+  GradientConfig gradient;
+  set_refinement_bounds(config, gradient);
+  plan.refinement_steps = gradient.steps;
+  plan.refinement_max_steps = gradient.steps > 0 ? 0 : gradient.max_steps;
+  plan.refinement_epochs = config.refinement_epochs;
+  plan.refinement_seconds = config.refinement_seconds;
+  plan.refinement = estimate_refinement(samples, start, config.em.threads, gradient);
+  return plan;
+}
+
+// fit_model on a sample set of `tile`; `watch`, where given, is told the plan and the
+// refinement's progress.
 BtfModel fit_samples(const SampleSet& samples, const FitTile& tile, const FitConfig& config,
                      const EmCallback& progress, const FitState* resume,
                      const EmStateCallback& after_iteration, FitState* state, Clock::time_point t0,
-                     const GradientCallback& refinement = {},
+                     const FitObserver* watch = nullptr,
                      std::optional<PredictionRefinement>* refined = nullptr) {
   check_supported_components(config, samples.size());
   ProductMixture mix =
       resume ? resume->mixture : initial_mixture(samples, config.components, config.seed);
   EmConfig em_config = config.em;
   if (!em_config.device) em_config.device = open_compute_device(config.device);
+  if (watch && watch->planned)
+    watch->planned(
+        plan_fit(samples, config, mix, resume ? resume->result.iterations : 0, em_config.device));
   const EmResult em = fit_em(samples, mix, em_config, progress, resume ? &resume->result : nullptr,
                              after_iteration);
   if (state) *state = FitState{mix, em};
@@ -277,11 +319,12 @@ BtfModel fit_samples(const SampleSet& samples, const FitTile& tile, const FitCon
   double final_l = em.final_log_likelihood;
   if (config.objective == FitObjective::kPrediction) {
     GradientConfig gradient;
-    gradient.steps = config.refinement_steps;
-    gradient.seconds = refinement_bound(config);
-    if (config.refinement_epochs > 0) gradient.max_epochs = config.refinement_epochs;
+    set_refinement_bounds(config, gradient);
     gradient.seed = config.seed;
-    gradient.progress = refinement;
+    if (watch) {
+      gradient.progress = watch->refinement;
+      gradient.planned = watch->refinement_planned;
+    }
     gradient.stop = config.em.stop;
     const PredictionRefinement done =
         refine_for_prediction(samples, mix, config.em.threads, gradient);
@@ -410,32 +453,13 @@ FitRequest continue_request(const fs::path& path, const std::string& input, int 
   return r;
 }
 
-double refinement_bound(const FitConfig& config) {
-  if (config.objective != FitObjective::kPrediction) return 0.0;
-  if (config.refinement_seconds > 0) return config.refinement_seconds;
-  return config.refinement_epochs > 0 ? kMaxRefineSeconds
-                                      : default_refine_seconds(config.components);
+void set_refinement_bounds(const FitConfig& config, GradientConfig& gradient) {
+  gradient.steps = config.refinement_steps;
+  const bool chosen = config.refinement_seconds > 0 || config.refinement_epochs > 0;
+  gradient.max_steps = chosen ? 0 : kDefaultRefineSteps;
+  gradient.seconds = config.refinement_seconds > 0 ? config.refinement_seconds : kMaxRefineSeconds;
+  gradient.max_epochs = config.refinement_epochs > 0 ? config.refinement_epochs : kMaxRefineEpochs;
 }
-
-namespace {
-
-// The fit's plan on its samples: EM's iterations left, one timed on a few lights, and the
-// refinement's bound.
-FitPlan plan_fit(const SampleSet& samples, const FitRequest& request) {
-  const FitConfig& config = request.config;
-  check_supported_components(config, samples.size());
-  const int done = request.resume ? request.resume->checkpoint.state.result.iterations : 0;
-  const auto device = config.em.device ? config.em.device : open_compute_device(config.device);
-  return {.components = config.components,
-          .iterations = std::max(0, config.em.max_iterations - done),
-          .em_iteration_seconds =
-              estimate_em_iteration_seconds(samples, config.components, config.em.threads, device),
-          .refinement_seconds = refinement_bound(config),
-          .refinement_epochs = config.refinement_epochs,
-          .device = device_text(device)};
-}
-
-}  // namespace
 
 FitOutcome fit_in_memory(const FitRequest& request, const FitObserver& observer) {
   const LoadedTile loaded = load_tile(request);
@@ -446,16 +470,16 @@ FitOutcome fit_in_memory(const FitRequest& request, const FitObserver& observer)
                                                      tile.origin.height, loaded.data.content_hash));
   if (request.resume) {
     check_resume(*request.resume, job);
-    job.runs = request.resume->checkpoint.runs + 1;
+    // A continued model's fit is another (from its rounded parameters); a resumed one's is the
+    // same fit, and writes the same file as one never interrupted.
+    job.runs = request.resume->checkpoint.runs + (request.resume->finished_model ? 1 : 0);
   }
   if (observer.started) observer.started(tile);
-  if (observer.planned) observer.planned(plan_fit(loaded.samples, request));
   FitState state;
   std::optional<PredictionRefinement> refined;
-  BtfModel model =
-      fit_samples(loaded.samples, tile, request.config, observer.iteration,
-                  request.resume ? &request.resume->checkpoint.state : nullptr,
-                  periodic_checkpoints(request, job), &state, t0, observer.refinement, &refined);
+  BtfModel model = fit_samples(loaded.samples, tile, request.config, observer.iteration,
+                               request.resume ? &request.resume->checkpoint.state : nullptr,
+                               periodic_checkpoints(request, job), &state, t0, &observer, &refined);
   if (state.result.interrupted) return save_interrupted(request, job, std::move(state));
   record_provenance(request, job, loaded.data, model);
   if (refined) model.provenance.fit.settings.push_back(refinement_record(*refined));

@@ -124,9 +124,10 @@ void put_provenance(ByteWriter& w, const Provenance& p) {
   w.put<std::uint32_t>(std::uint32_t(s.image_width));
   w.put<std::uint32_t>(std::uint32_t(s.image_height));
   w.put<std::uint64_t>(p.data.content_hash);
-  // Times as the reader takes them: finite, not negative, never earlier than the one before.
-  auto time = [](double t, double before) { return std::isfinite(t) && t > before ? t : before; };
-  w.put<double>(time(p.fit.seconds, 0.0));
+  // No time is written (0 in its place): the file is a function of the data, the settings and
+  // the seed, the same at any load, with any thread count, and after a resume (the fit's
+  // times are the run's: printed, and in fit --log).
+  w.put<double>(0.0);
   w.put<std::uint32_t>(std::max<std::uint32_t>(p.fit.runs, 1));
   const std::size_t k = std::min<std::size_t>(p.fit.settings.size(), kMaxSettings);
   w.put<std::uint32_t>(std::uint32_t(k));
@@ -136,11 +137,9 @@ void put_provenance(ByteWriter& w, const Provenance& p) {
     w.text(clean_text(p.fit.settings[i].second, kMaxValue));
   }
   w.put<std::uint32_t>(std::uint32_t(p.fit.iterations.size()));
-  double before = 0.0;
   for (const IterationRecord& it : p.fit.iterations) {
     w.put<double>(it.log_likelihood);
-    before = time(it.seconds, before);
-    w.put<double>(before);
+    w.put<double>(0.0);
     w.put<std::uint32_t>(it.components);
   }
 }

@@ -218,8 +218,70 @@ double refit_where_it_validates(const SampleSet& samples, ProductMixture& mix, i
 
 }  // namespace
 
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double seconds_from(Clock::time_point t0) {
+  return std::chrono::duration<double>(Clock::now() - t0).count();
+}
+
+// The seconds of one colour refit: its normal equations on a sixteenth of the refit's
+// subsample, scaled, and the solve on the first min(M, 1000) components, scaled as M^3.
+double time_colour_refit(const SampleSet& samples, const ProductMixture& mix, int threads) {
+  const std::size_t stride = detail::subsample_stride(samples.size(), kColourRefitSamples);
+  auto at = Clock::now();
+  const ColourNormalEquations part =
+      colour_normal_equations(samples, mix, threads, stride * 16, true);
+  const double sums = seconds_from(at);
+  const double taken =
+      double(samples.size()) / double(stride) * (1.0 - 1.0 / double(kValidationEvery));
+  const double scaled = sums * taken / double(std::max<std::size_t>(part.samples, 1));
+  constexpr std::size_t kSolved = 1000;
+  const std::size_t m = std::min(mix.size(), kSolved);
+  ColourNormalEquations eq;
+  eq.components = m;
+  eq.gram.resize(m * m);
+  eq.rhs.assign(part.rhs.begin(), part.rhs.begin() + std::ptrdiff_t(m * 3));
+  eq.energy = part.energy;
+  for (std::size_t i = 0; i < m; ++i)
+    std::copy_n(part.gram.begin() + std::ptrdiff_t(i * mix.size()), m,
+                eq.gram.begin() + std::ptrdiff_t(i * m));
+  ProductMixture head = mix;
+  head.resize(m);
+  at = Clock::now();
+  refit_colour_means(eq, head);
+  const double solve = seconds_from(at) * std::pow(double(mix.size()) / double(m), 3.0);
+  return scaled + solve;
+}
+
+}  // namespace
+
+RefinementEstimate estimate_refinement(const SampleSet& samples, const ProductMixture& mix,
+                                       int threads, const GradientConfig& gradient) {
+  RefinementEstimate e;
+  const double refit = time_colour_refit(samples, mix, threads);
+  e.colour_refit_seconds = gradient.gradient ? 2.0 * refit : refit;
+  e.seconds = e.colour_refit_seconds;
+  if (!gradient.gradient) return e;
+  const detail::StepTimes t = detail::time_gradient_step(samples, mix, threads, gradient.batch);
+  e.step_seconds = t.step;
+  e.validation_seconds = t.validation;
+  e.steps_per_epoch = t.batches;
+  const double by_epochs = double(gradient.max_epochs) * double(t.batches);
+  double steps = gradient.steps > 0 ? double(gradient.steps) : by_epochs;
+  if (gradient.steps == 0 && gradient.max_steps > 0)
+    steps = std::min(steps, double(gradient.max_steps));
+  e.steps = static_cast<long long>(steps);
+  const double stepping =
+      steps * t.step + (std::floor(steps / double(t.validate_every)) + 1.0) * t.validation;
+  e.time_bound = stepping > gradient.seconds;
+  e.seconds += std::min(stepping, gradient.seconds);
+  return e;
+}
+
 PredictionRefinement refine_for_prediction(const SampleSet& samples, ProductMixture& mix,
                                            int threads, const GradientConfig& gradient) {
+  if (gradient.planned) gradient.planned(estimate_refinement(samples, mix, threads, gradient));
   const auto t0 = std::chrono::steady_clock::now();
   PredictionRefinement out;
   const detail::Selection validation{1, 0, detail::Selection::Part::kValidation};

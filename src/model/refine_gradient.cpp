@@ -452,17 +452,25 @@ struct Epochs {
 void report(const GradientConfig& config, const Epochs& at, const Convergence& rule,
             const PredictionRefinement& out, double rmse, bool last) {
   if (!config.progress) return;
-  const double fraction =
-      last             ? 1.0
-      : out.steps == 0 ? 0.0
-      : config.steps > 0
-          ? double(out.steps) / config.steps
-          : std::max({at.elapsed() / config.seconds, double(out.epochs - 1) / config.max_epochs,
-                      double(rule.plateaus) / std::max(1, config.plateaus)});
-  config.progress({out.epochs, out.steps, config.steps, rmse,
-                   prediction_rmse(out.error_final, out.samples),
-                   prediction_rmse(at.train_error, at.train_samples), at.elapsed(), config.seconds,
-                   std::min(fraction, 1.0), config.max_epochs});
+  const double step_share = config.max_steps > 0 ? double(out.steps) / config.max_steps : 0.0;
+  const double fraction = last             ? 1.0
+                          : out.steps == 0 ? 0.0
+                          : config.steps > 0
+                              ? double(out.steps) / config.steps
+                              : std::max({step_share, at.elapsed() / config.seconds,
+                                          double(out.epochs - 1) / config.max_epochs,
+                                          double(rule.plateaus) / std::max(1, config.plateaus)});
+  config.progress({.epoch = out.epochs,
+                   .step = out.steps,
+                   .steps = config.steps,
+                   .max_steps = config.steps > 0 ? 0 : config.max_steps,
+                   .validation_rmse = rmse,
+                   .best_validation_rmse = prediction_rmse(out.error_final, out.samples),
+                   .training_rmse = prediction_rmse(at.train_error, at.train_samples),
+                   .elapsed = at.elapsed(),
+                   .seconds = config.seconds,
+                   .fraction = std::min(fraction, 1.0),
+                   .max_epochs = config.max_epochs});
 }
 
 // Validation after a step: the lowest error's mixture kept in `best`; the progress reported.
@@ -483,7 +491,7 @@ bool validate(detail::SparsePass& pass, const ProductMixture& mix, const Gradien
 }
 
 // Whether the steps end after this one: a stop asked for (in any process), the time bound,
-// the steps asked for.
+// the steps asked for, the bound on steps.
 bool steps_end(const SampleSet& samples, const GradientConfig& config, const Epochs& at,
                PredictionRefinement& out) {
   const bool asked = config.stop && config.stop->load();
@@ -493,12 +501,36 @@ bool steps_end(const SampleSet& samples, const GradientConfig& config, const Epo
     out.timed_out = !out.stopped;
     return true;
   }
-  return config.steps > 0 && out.steps >= config.steps;
+  if (config.steps > 0) return out.steps >= config.steps;
+  out.step_bound = config.max_steps > 0 && out.steps >= config.max_steps;
+  return out.step_bound;
 }
 
 }  // namespace
 
 namespace detail {
+
+StepTimes time_gradient_step(const SampleSet& samples, const ProductMixture& mix, int threads,
+                             std::size_t batch) {
+  using Clock = std::chrono::steady_clock;
+  StepTimes t;
+  t.batches = minibatches(samples, batch);
+  t.validate_every = std::max<std::size_t>(1, t.batches / 4);
+  SparsePass pass(samples, mix.size(), threads);
+  // The second of two steps: the first starts the threads.
+  t.step = std::numeric_limits<double>::infinity();
+  for (std::size_t k = 0; k < std::min<std::size_t>(2, t.batches); ++k) {
+    const auto at = Clock::now();
+    pass(mix, {t.batches, k, Selection::Part::kTraining});
+    t.step = std::chrono::duration<double>(Clock::now() - at).count();
+  }
+  const std::size_t held = samples.size() / kValidationEvery;
+  const auto at = Clock::now();
+  const PredictionGradient part = pass(mix, {8, 0, Selection::Part::kValidation}, false);
+  const double seconds = std::chrono::duration<double>(Clock::now() - at).count();
+  t.validation = seconds * double(held) / double(std::max<std::size_t>(part.samples, 1));
+  return t;
+}
 
 void gradient_epochs(const SampleSet& samples, ProductMixture& mix, int threads,
                      const GradientConfig& config, PredictionRefinement& out) {
@@ -540,7 +572,7 @@ void gradient_epochs(const SampleSet& samples, ProductMixture& mix, int threads,
       ++out.steps;
       const bool due = (k + 1) % validate_every == 0 || k + 1 == batches;
       const bool converged = due && validate(pass, mix, config, at, rule, best, out);
-      done = steps_end(samples, config, at, out) || converged;
+      done = converged || steps_end(samples, config, at, out);  // converged: the same everywhere
       if (done && !due) validate(pass, mix, config, at, rule, best, out);
     }
   }

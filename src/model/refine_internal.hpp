@@ -84,6 +84,16 @@ bool any_process(Communicator* processes, bool mine);
 void gradient_epochs(const SampleSet& samples, ProductMixture& mix, int threads,
                      const GradientConfig& config, PredictionRefinement& out);
 
+// The seconds of one Adam step's gradient pass over a minibatch of about `batch` training
+// samples and of one validation (timed on an eighth of the held-out samples, scaled), on
+// `mix`; the minibatches of an epoch.
+struct StepTimes {
+  double step = 0.0, validation = 0.0;
+  std::size_t batches = 0, validate_every = 0;
+};
+StepTimes time_gradient_step(const SampleSet& samples, const ProductMixture& mix, int threads,
+                             std::size_t batch);
+
 // The squared error of the prediction over the samples of `selection` (float pass), and
 // their count.
 std::pair<double, std::size_t> selection_error(const SampleSet& samples, const ProductMixture& mix,

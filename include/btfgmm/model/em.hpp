@@ -31,13 +31,18 @@ EmResult fit_em(const SampleSet& samples, ProductMixture& mixture, const EmConfi
 double mean_log_likelihood(const SampleSet& samples, const ProductMixture& mixture, int threads = 0,
                            bool tile_wraps = true);
 
-// The seconds one iteration of fit_em on `samples` with M = `components` would take on this
-// machine, timed on about 1/32 of the lights it holds (EM's tables in whole, the E pass of
-// those lights scaled to all of them, the M-step): the estimate a fit states before EM. Its M
-// components are equal and spread over the whole set, so that none is skipped as negligible:
-// EM's later iterations, with narrower components, tend to take less. Throws as
-// check_em_size before any work.
+// The seconds one iteration of fit_em on `samples` from `start` would take on this machine,
+// timed on about 1/32 of the lights it holds (EM's tables in whole, the E pass of those
+// lights scaled to all of them, the M-step): the estimate a fit states before EM. EM's
+// components narrow as it goes and its skip of negligible ones gains: the E pass is timed on
+// `start` and on `start` with its variances scaled by kLaterVariance, the iterations EM spends
+// mostly in, and the mean of the two is returned. Throws as check_em_size before any work.
 // With `device`, the iteration's E pass is timed on that device (docs/GPU.md).
+double estimate_em_iteration_seconds(const SampleSet& samples, const ProductMixture& start,
+                                     int threads = 0,
+                                     const std::shared_ptr<ComputeDevice>& device = nullptr);
+// The same from M = `components` equal components spread over the whole set, none negligible:
+// a bound rather than an estimate, where the fit's start is not at hand.
 double estimate_em_iteration_seconds(const SampleSet& samples, std::size_t components,
                                      int threads = 0,
                                      const std::shared_ptr<ComputeDevice>& device = nullptr);

@@ -29,15 +29,14 @@ struct FitConfig {
   // prediction's error (refine_for_prediction, model/refine.hpp; em.stop ends its steps
   // early). `btfgmm fit` asks for the latter unless --objective likelihood.
   FitObjective objective = FitObjective::kLikelihood;
-  // kPrediction: the refinement's Adam steps; 0: until the validation error converges
-  // (GradientConfig).
+  // kPrediction: the refinement's bounds (set_refinement_bounds). By default, at most
+  // kDefaultRefineSteps Adam steps, ended sooner by its stopping rule: bounded in work, the fit
+  // gives the same model at any load and with any thread count. refinement_steps: exactly
+  // that many steps (the rule off). refinement_epochs, refinement_seconds: at most that many
+  // epochs, seconds, in place of the default bound; a bound in seconds makes the model depend
+  // on the machine and its load (its provenance says so).
   int refinement_steps = 0;
-  // kPrediction: the refinement's bound on its time, seconds (GradientConfig::seconds); 0:
-  // default_refine_seconds(components), or none (kMaxRefineSeconds) with refinement_epochs.
   double refinement_seconds = 0.0;
-  // kPrediction: the refinement's epochs at most (GradientConfig::max_epochs); 0:
-  // kMaxRefineEpochs. Bounded in passes over the data rather than in time, a fit gives the
-  // same model on any machine at any load.
   int refinement_epochs = 0;
   // Where EM's E pass runs (gpu/compute_device.hpp, docs/GPU.md): kAuto, a hardware GPU where
   // one exists, else the CPU. The fit opens the device; em.device, where set, is used as is.
@@ -124,20 +123,27 @@ struct FitTile {
 };
 
 // What a fit will take, stated before EM: its iterations left, each timed on a few lights
-// (estimate_em_iteration_seconds), and the refinement's bound on its time.
+// from the mixture EM starts from (estimate_em_iteration_seconds), and the refinement's bounds
+// with its time estimated on that mixture (estimate_refinement; the estimate before the
+// refinement, FitObserver::refinement_planned, is timed on EM's result).
 struct FitPlan {
   std::size_t components = 0;
   int iterations = 0;                 // EM iterations at most, those a resume has run aside
-  double em_iteration_seconds = 0.0;  // about; EM's later iterations tend to take less
-  double refinement_seconds = 0.0;    // at most (0: no refinement, the likelihood objective)
+  double em_iteration_seconds = 0.0;  // about, the first's
+  double em_seconds = 0.0;            // about, every iteration's (later ones take less)
+  bool refines = false;               // the objective kPrediction
+  int refinement_steps = 0;           // exactly (FitConfig::refinement_steps), or 0
+  int refinement_max_steps = 0;       // at most (the default bound), or 0
   int refinement_epochs = 0;          // at most, where the fit asked for a bound in epochs
+  double refinement_seconds = 0.0;    // at most, where the fit asked for a bound in time
+  RefinementEstimate refinement{};    // about, timed before EM
   std::string device;                 // where EM runs: "cpu" or the GPU's description
 };
 
-// The refinement's bound on its time: config.refinement_seconds, or by default
-// default_refine_seconds(components), or kMaxRefineSeconds where config.refinement_epochs
-// bounds it instead; 0 with the objective kLikelihood (no refinement).
-double refinement_bound(const FitConfig& config);
+// The refinement's bounds in `gradient` as the fit's settings ask (FitConfig): exactly
+// refinement_steps steps where given; at most refinement_epochs epochs and
+// refinement_seconds seconds where either is given; otherwise at most kDefaultRefineSteps.
+void set_refinement_bounds(const FitConfig& config, GradientConfig& gradient);
 
 // What run_fit tells as it goes (the library prints nothing).
 struct FitObserver {
@@ -146,7 +152,9 @@ struct FitObserver {
   // Then, where given, what the fit will take (its EM iteration timed on a few lights first).
   std::function<void(const FitPlan& plan)> planned;
   EmCallback iteration;  // after every EM iteration, as fit_em's progress
-  // The fit for the prediction: after every gradient step (refine_for_prediction).
+  // The fit for the prediction: before it starts, what it will take, timed on EM's mixture;
+  // then after every validation (refine_for_prediction).
+  std::function<void(const RefinementEstimate&)> refinement_planned;
   GradientCallback refinement;
 };
 

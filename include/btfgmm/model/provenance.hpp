@@ -7,6 +7,7 @@
 #include <cstdint>
 #include <span>
 #include <string>
+#include <string_view>
 #include <utility>
 #include <vector>
 
@@ -43,6 +44,12 @@ struct FitLog {
   std::uint32_t runs = 1;                   // 1; one more for each resume or continuation
   std::vector<IterationRecord> iterations;  // EM's (the mixture); empty for other methods
 };
+
+// The value of the setting "reproducible" of a fit bounded in time (a refinement's
+// `refine_seconds`): its model depends on the machine and its load. A fit without the
+// setting is a function of its data, settings and seed.
+constexpr std::string_view kBoundInTime =
+    "no: the refinement was bounded in time, so the model depends on the machine and its load";
 
 struct Provenance {
   bool recorded = false;  // false: an older file, or a model made without one

@@ -129,29 +129,31 @@ bool validation_sample(std::size_t pixel, std::size_t pair, std::size_t pairs);
 // The most epochs a refinement takes (GradientConfig::max_epochs; fit --refine-epochs).
 constexpr int kMaxRefineEpochs = 1000;
 
+// The refinement's default bound on its work: at most this many Adam steps, the stopping
+// rule on. A step weighs M components of a minibatch, so its cost grows with M as the earlier
+// default bound in time did (M / 6 s), but a bound in steps gives the same model at any load,
+// with any thread count and on any machine (docs/ALGORITHM.md, "Reproducible fits"). 2,400
+// steps are about 10 epochs of a 25 x 25 tile of 81 x 81 directions, what that time bound gave
+// on a quiet 2-core machine at M = 600.
+constexpr int kDefaultRefineSteps = 2400;
+
 // Where the refinement is, after a validation: `step` Adam steps in `epoch` epochs (passes
 // over the training samples, from 1); the validation RMSE (model units: levels) of the
 // parameters just reached and the lowest met, the training RMSE over the last epoch's
 // minibatches, and the seconds since the refinement began of at most `seconds`.
 struct GradientProgress {
-  int epoch = 1, step = 0, steps = 0;  // steps: those asked for (GradientConfig::steps), or 0
+  int epoch = 1, step = 0, steps = 0;   // steps: those asked for (GradientConfig::steps), or 0
+  int max_steps = kDefaultRefineSteps;  // GradientConfig::max_steps (0: none)
   double validation_rmse = 0.0, best_validation_rmse = 0.0, training_rmse = 0.0;
   double elapsed = 0.0, seconds = 0.0;
   // How far along, 0 before the first step to 1 after the last: of the steps asked for, or the
-  // most of the time bound's, the epochs' and the stopping rule's halvings' shares.
+  // most of the step bound's, the time bound's, the epochs' and the stopping rule's halvings'
+  // shares.
   double fraction = 0.0;
   int max_epochs = kMaxRefineEpochs;  // GradientConfig::max_epochs
 };
 using GradientCallback = std::function<void(const GradientProgress&)>;
 
-// The refinement's default bound on its time (fit --refine-seconds), in seconds: M / 6 (100 s
-// at M = 600), so that any M gets about as many passes over the data; with EM's 40
-// iterations it keeps the default fit of a 25 x 25 tile at M = 600 within 5 minutes on two
-// cores (docs/ALGORITHM.md).
-constexpr double kDefaultRefineSecondsPerComponent = 1.0 / 6.0;
-inline double default_refine_seconds(std::size_t components) {
-  return std::max(30.0, double(components) * kDefaultRefineSecondsPerComponent);
-}
 constexpr double kMaxRefineSeconds = 7.0 * 24 * 3600;
 constexpr int kMaxRefineSteps = 100000;  // the most a fit may ask for (fit --refine-steps)
 
@@ -161,14 +163,17 @@ constexpr int kMaxRefineSteps = 100000;  // the most a fit may ask for (fit --re
 // (`rate` in each parameter's own unit: a_m, the input means, s_mn; `colour_rate` levels for
 // the colour means) warmed up over the first 20 steps and halved whenever the validation
 // error has not fallen by `min_gain` (relative) over `patience` validations (each a quarter
-// of an epoch); the steps end after `plateaus` such halvings, after `seconds`, after
-// `max_epochs`, or when `stop` is set, and the parameters of the lowest validation error met
-// are kept. `steps` > 0: exactly that many steps instead (the rule off; seconds and stop
-// still end them). gradient false: the colour refit alone.
+// of an epoch); the steps end after `plateaus` such halvings, after `max_steps` steps, after
+// `max_epochs`, after `seconds` (none by default: a bound in time makes the model depend on
+// the machine and its load), or when `stop` is set, and the parameters of the lowest
+// validation error met are kept. `steps` > 0: exactly that many steps instead (the rule and
+// max_steps off; seconds and stop still end them). gradient false: the colour refit alone.
+struct RefinementEstimate;
 struct GradientConfig {
   bool gradient = true;
   int steps = 0;
-  double seconds = default_refine_seconds(600);
+  int max_steps = kDefaultRefineSteps;  // 0: no bound in steps
+  double seconds = kMaxRefineSeconds;
   int max_epochs = kMaxRefineEpochs;
   int patience = 4;
   int plateaus = 3;
@@ -178,11 +183,32 @@ struct GradientConfig {
   std::size_t batch = 16384;
   std::uint64_t seed = 1;
   GradientCallback progress;  // before the first step, after every validation, after the last
+  // Where set, called before any work with what the refinement will take, timed on the mixture
+  // it starts from (estimate_refinement).
+  std::function<void(const RefinementEstimate&)> planned;
   // Checked after every step: when set, the steps end there, the parameters of the lowest
   // validation error met are kept and closed by the colour refit as after the last step
   // (PredictionRefinement::stopped). Null: never.
   const std::atomic<bool>* stop = nullptr;
 };
+
+// What the refinement of `gradient` will take on this machine, timed on `mix`: one Adam step
+// (a minibatch's gradient pass), a validation (on an eighth of the held-out samples, scaled),
+// the colour refits (their normal equations on a sixteenth of the refit's subsample, scaled;
+// their solve on at most 1,000 components, scaled as M^3), the steps its bounds allow and the
+// seconds in all: at most about, since the stopping rule may end the steps sooner. Costs
+// about two steps and a sixteenth of a colour refit.
+struct RefinementEstimate {
+  double colour_refit_seconds = 0.0;  // both refits (one without the gradient steps)
+  double step_seconds = 0.0;
+  double validation_seconds = 0.0;
+  std::size_t steps_per_epoch = 0;
+  long long steps = 0;      // at most, by the bounds in steps and epochs
+  bool time_bound = false;  // the bound in time (GradientConfig::seconds) ends them first
+  double seconds = 0.0;     // in all
+};
+RefinementEstimate estimate_refinement(const SampleSet& samples, const ProductMixture& mix,
+                                       int threads, const GradientConfig& gradient);
 
 // The most components a tile supports for the fit for the prediction: one per
 // kSamplesPerComponent training samples (16 parameters each); more are refused before the
@@ -202,6 +228,7 @@ struct PredictionRefinement {
   int steps_planned = 0;       // GradientConfig::steps (0: the stopping rule's)
   int epochs = 0;              // epochs begun
   bool stopped = false;        // ended early by GradientConfig::stop
+  bool step_bound = false;     // ended by GradientConfig::max_steps
   bool timed_out = false;      // ended by GradientConfig::seconds
   bool epoch_bound = false;    // ended by GradientConfig::max_epochs
   std::size_t samples = 0;     // validation samples, on which the errors are
