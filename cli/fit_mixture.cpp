@@ -139,6 +139,17 @@ void print_refinement(const btfgmm::GradientProgress& p, double& printed_at) {
              human_seconds(p.elapsed), left);
 }
 
+// A colour refit under way, once it has taken 5 seconds and then every 5 seconds (a small
+// one says nothing): its share done and the time left at its pace.
+void print_colour_refit(const btfgmm::GradientProgress& p, double& printed_at) {
+  if (p.elapsed < printed_at) printed_at = 0.0;  // the next refit
+  if (p.elapsed < printed_at + 5.0 || p.fraction >= 1.0) return;
+  printed_at = p.elapsed;
+  fmt::print(stderr, "refining for the prediction: colour refit {:.0f} %, {}, about {} left\n",
+             100.0 * p.fraction, human_seconds(p.elapsed),
+             human_seconds(p.elapsed * (1.0 / std::max(p.fraction, 1e-9) - 1.0)));
+}
+
 // Where EM runs: "on the CPU" or "on the GPU NAME (Vulkan, DRIVER)".
 std::string device_words(const btfgmm::FitPlan& p) {
   return p.device == "cpu" ? "on the CPU" : "on the GPU " + p.device;
@@ -312,8 +323,13 @@ void run_mixture_fit(const FitArguments& options,
     if (log) log->add({p.log_likelihood, p.seconds, std::uint32_t(p.components)});
   };
   double printed_at = 0.0;
+  double refit_printed_at = 0.0;
   observer.refinement = [&](const btfgmm::GradientProgress& p) {
-    if (!o.quiet) print_refinement(p, printed_at);
+    if (o.quiet) return;
+    if (p.colour_refit)
+      print_colour_refit(p, refit_printed_at);
+    else
+      print_refinement(p, printed_at);
   };
   const btfgmm::FitOutcome fit = btfgmm::run_fit(r, observer);
   stop_on_signals.reset();

@@ -442,6 +442,8 @@ TEST_F(ProvenanceFit, TheDefaultFitWritesTheSameFileWithAnyThreadCount) {
   o.planned = [&](const FitPlan& p) { plan = p; };
   std::optional<RefinementEstimate> before;
   o.refinement_planned = [&](const RefinementEstimate& e) { before = e; };
+  int refits = 0;  // colour refits summed to the end, as their progress tells
+  o.refinement = [&](const GradientProgress& p) { refits += p.colour_refit && p.fraction == 1.0; };
   FitRequest one = request(3, "one.btfgmm");
   one.config.objective = FitObjective::kPrediction;
   one.config.em.threads = 1;
@@ -453,6 +455,7 @@ TEST_F(ProvenanceFit, TheDefaultFitWritesTheSameFileWithAnyThreadCount) {
             std::min<long long>(kDefaultRefineSteps, kMaxRefineEpochs * before->steps_per_epoch));
   EXPECT_GT(before->steps_per_epoch, 0u);
   EXPECT_LE(a.refinement->steps, kDefaultRefineSteps);
+  EXPECT_EQ(refits, 2);  // before the steps and after them
   FitRequest two = one;
   two.output = (dir_ / "two.btfgmm").string();
   two.config.em.threads = 2;

@@ -248,8 +248,12 @@ def test_progress_and_stopping_a_fit(work):
     btfgmm.fit(work["btf"], tile=(0, 0, 6, 6), components=5, iterations=3, seed=2,
                progress=lambda fraction, stage: stages.append((fraction, stage)))
     assert [s for _, s in stages[:3]] == ["EM"] * 3
+    assert {s for _, s in stages[3:]} == {"colour refit", "refinement"}
+    # A colour refit's share grows as its lights are summed, up to the whole, twice.
+    refits = [f for f, s in stages[3:] if s == "colour refit"]
+    assert refits.count(1) == 2 and all(0 < f <= 1 for f in refits)
     refinement = [f for f, s in stages[3:] if s == "refinement"]
-    assert len(refinement) == len(stages) - 3 and refinement[0] == 0 and refinement[-1] == 1
+    assert refinement[0] == 0 and refinement[-1] == 1
     calls = []
 
     def stop_in_refinement(fraction, stage):

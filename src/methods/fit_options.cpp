@@ -161,7 +161,7 @@ std::unique_ptr<Representation> fit_mixture(const FitOptions& o, const std::stri
   observer.iteration = progress.iteration;
   if (progress.progress)
     observer.refinement = [&progress](const GradientProgress& g) {
-      progress.progress(g.fraction, "refinement");
+      progress.progress(g.fraction, g.colour_refit ? "colour refit" : "refinement");
     };
   FitOutcome fit = fit_in_memory(r, observer);
   if (fit.interrupted) return nullptr;

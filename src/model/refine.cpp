@@ -81,14 +81,15 @@ struct Accumulator {
 
 ColourNormalEquations colour_normal_equations(const SampleSet& samples, const ProductMixture& mix,
                                               int threads, std::size_t stride, bool training,
-                                              const std::atomic<bool>* stop) {
+                                              const std::atomic<bool>* stop,
+                                              const std::function<void(double)>& progress) {
   const std::size_t m = mix.size();
   ColourNormalEquations eq;
   eq.components = m;
   const detail::GridWeights grid(samples, mix, std::max<std::size_t>(stride, 1), training);
   // The totals as one vector: G's upper triangle (row-major, all M^2 places), b, e, the count.
   const std::size_t at_rhs = m * m, at_energy = at_rhs + 3 * m, at_count = at_energy + 3;
-  std::size_t count = 0;
+  std::size_t count = 0, folded = 0;
   std::vector<double> total = detail::fold_over_processes(
       samples.processes.get(), at_count + 1, [&](std::vector<double>& t) {
         grid.reduce_over_lights(
@@ -98,8 +99,9 @@ ColourNormalEquations colour_normal_equations(const SampleSet& samples, const Pr
               acc.add(s);
               ++acc.samples;
             },
-            [&t, &count, m, at_rhs, at_energy](Accumulator& acc) {
+            [&t, &count, &folded, &progress, &samples, m, at_rhs, at_energy](Accumulator& acc) {
               acc.flush();
+              if (progress) progress(double(++folded) / double(samples.held_lights()));
               for (std::size_t a = 0; a < m; ++a) {
                 for (std::size_t b = a; b < m; ++b)
                   t[a * m + b] += acc.gram(Eigen::Index(a), Eigen::Index(b));
@@ -200,14 +202,26 @@ namespace {
 
 // The colour means of `mix` refitted on the training samples of the refit's subsample, kept
 // where they lower the validation error `error`; returns the validation error of `mix`. Set
-// `stop` ends it without a refit.
+// `gradient.stop` ends it without a refit; `gradient.progress` is told how far the sums are.
 double refit_where_it_validates(const SampleSet& samples, ProductMixture& mix, int threads,
-                                double error, const std::atomic<bool>* stop) {
+                                double error, const GradientConfig& gradient) {
   const std::size_t stride = detail::subsample_stride(samples.size(), kColourRefitSamples);
   ProductMixture trial = mix;
+  const auto t0 = std::chrono::steady_clock::now();
+  std::function<void(double)> progress;
+  if (gradient.progress)
+    progress = [&gradient, t0](double fraction) {
+      gradient.progress(
+          {.max_steps = gradient.max_steps,
+           .elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(),
+           .seconds = gradient.seconds,
+           .fraction = fraction,
+           .max_epochs = gradient.max_epochs,
+           .colour_refit = true});
+    };
   const ColourNormalEquations eq =
-      colour_normal_equations(samples, trial, threads, stride, true, stop);
-  if (stop && stop->load()) return error;
+      colour_normal_equations(samples, trial, threads, stride, true, gradient.stop, progress);
+  if (gradient.stop && gradient.stop->load()) return error;
   refit_colour_means(eq, trial);
   const detail::Selection validation{1, 0, detail::Selection::Part::kValidation};
   const double after = detail::selection_error(samples, trial, threads, validation).first;
@@ -225,13 +239,25 @@ double seconds_from(Clock::time_point t0) {
   return std::chrono::duration<double>(Clock::now() - t0).count();
 }
 
-// The seconds of one colour refit: its normal equations on a sixteenth of the refit's
-// subsample, scaled, and the solve on the first min(M, 1000) components, scaled as M^3.
-double time_colour_refit(const SampleSet& samples, const ProductMixture& mix, int threads) {
+// The samples the estimate of a colour refit sums: a sixteenth of the refit's subsample, and
+// fewer as M grows (a sample costs M^2 / 2 products), so that the estimate itself takes
+// about a second or less at any M (500 samples at M = 2,000).
+std::size_t estimate_samples(std::size_t components) {
+  const double m = double(std::max<std::size_t>(components, 1));
+  return std::clamp<std::size_t>(std::size_t(2e9 / (m * m)), 256, kColourRefitSamples / 16);
+}
+
+// The seconds of one colour refit: its normal equations on estimate_samples of the refit's
+// subsample, scaled, and the solve on the first min(M, 1000) components, scaled as M^3. A set
+// `stop` ends it (the estimate is then of no use).
+double time_colour_refit(const SampleSet& samples, const ProductMixture& mix, int threads,
+                         const std::atomic<bool>* stop) {
   const std::size_t stride = detail::subsample_stride(samples.size(), kColourRefitSamples);
+  const std::size_t sparse =
+      std::max(stride, detail::subsample_stride(samples.size(), estimate_samples(mix.size())));
   auto at = Clock::now();
   const ColourNormalEquations part =
-      colour_normal_equations(samples, mix, threads, stride * 16, true);
+      colour_normal_equations(samples, mix, threads, sparse, true, stop);
   const double sums = seconds_from(at);
   const double taken =
       double(samples.size()) / double(stride) * (1.0 - 1.0 / double(kValidationEvery));
@@ -259,7 +285,8 @@ double time_colour_refit(const SampleSet& samples, const ProductMixture& mix, in
 RefinementEstimate estimate_refinement(const SampleSet& samples, const ProductMixture& mix,
                                        int threads, const GradientConfig& gradient) {
   RefinementEstimate e;
-  const double refit = time_colour_refit(samples, mix, threads);
+  const double refit = time_colour_refit(samples, mix, threads, gradient.stop);
+  if (gradient.stop && gradient.stop->load()) return e;
   e.colour_refit_seconds = gradient.gradient ? 2.0 * refit : refit;
   e.seconds = e.colour_refit_seconds;
   if (!gradient.gradient) return e;
@@ -288,14 +315,13 @@ PredictionRefinement refine_for_prediction(const SampleSet& samples, ProductMixt
   const auto [em_error, held_out] = detail::selection_error(samples, mix, threads, validation);
   out.samples = held_out;
   out.error_em = em_error;
-  out.error_colour = refit_where_it_validates(samples, mix, threads, em_error, gradient.stop);
+  out.error_colour = refit_where_it_validates(samples, mix, threads, em_error, gradient);
   out.stopped = gradient.stop && gradient.stop->load();
   out.error_final = out.error_colour;
   out.steps_planned = gradient.steps;
   if (gradient.gradient && !out.stopped) {
     detail::gradient_epochs(samples, mix, threads, gradient, out);
-    out.error_final =
-        refit_where_it_validates(samples, mix, threads, out.error_final, gradient.stop);
+    out.error_final = refit_where_it_validates(samples, mix, threads, out.error_final, gradient);
     out.stopped = out.stopped || (gradient.stop && gradient.stop->load());
   }
   out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();

@@ -48,11 +48,12 @@ struct ColourNormalEquations {
 // (validation_sample) left out. Summed light by light, folded in light order over the
 // processes of a distributed set: the same for any number of threads and processes. `stop`
 // set while it runs: the remaining samples are skipped (checked at every sample) and the
-// sums are incomplete; the caller, which gave the flag, discards them.
-ColourNormalEquations colour_normal_equations(const SampleSet& samples, const ProductMixture& mix,
-                                              int threads = 0, std::size_t stride = 1,
-                                              bool training = false,
-                                              const std::atomic<bool>* stop = nullptr);
+// sums are incomplete; the caller, which gave the flag, discards them. `progress`, where
+// given, is called with the share of this process's lights summed as each is folded in.
+ColourNormalEquations colour_normal_equations(
+    const SampleSet& samples, const ProductMixture& mix, int threads = 0, std::size_t stride = 1,
+    bool training = false, const std::atomic<bool>* stop = nullptr,
+    const std::function<void(double fraction)>& progress = {});
 
 // About the samples the closed-form colour refit of refine_for_prediction takes: 3 M unknowns
 // against a quarter of a million equations; the sums over every image of a large tile (M^2 / 2
@@ -151,6 +152,9 @@ struct GradientProgress {
   // shares.
   double fraction = 0.0;
   int max_epochs = kMaxRefineEpochs;  // GradientConfig::max_epochs
+  // A colour refit under way (before the steps, or after them): `fraction` is its share
+  // done, `elapsed` its seconds; the other fields are those of the last validation.
+  bool colour_refit = false;
 };
 using GradientCallback = std::function<void(const GradientProgress&)>;
 
@@ -182,7 +186,9 @@ struct GradientConfig {
   double colour_rate = 2.0;
   std::size_t batch = 16384;
   std::uint64_t seed = 1;
-  GradientCallback progress;  // before the first step, after every validation, after the last
+  // Before the first step, after every validation, after the last; during each colour refit,
+  // as its lights are summed (GradientProgress::colour_refit).
+  GradientCallback progress;
   // Where set, called before any work with what the refinement will take, timed on the mixture
   // it starts from (estimate_refinement).
   std::function<void(const RefinementEstimate&)> planned;
@@ -194,10 +200,11 @@ struct GradientConfig {
 
 // What the refinement of `gradient` will take on this machine, timed on `mix`: one Adam step
 // (a minibatch's gradient pass), a validation (on an eighth of the held-out samples, scaled),
-// the colour refits (their normal equations on a sixteenth of the refit's subsample, scaled;
-// their solve on at most 1,000 components, scaled as M^3), the steps its bounds allow and the
-// seconds in all: at most about, since the stopping rule may end the steps sooner. Costs
-// about two steps and a sixteenth of a colour refit.
+// the colour refits (their normal equations on at most a sixteenth of the refit's subsample,
+// fewer samples as M grows, scaled; their solve on at most 1,000 components, scaled as M^3),
+// the steps its bounds allow and the seconds in all: at most about, since the stopping rule
+// may end the steps sooner. Costs about two steps and a second at most of sums; a set
+// gradient.stop ends it early (its figures then of no use).
 struct RefinementEstimate {
   double colour_refit_seconds = 0.0;  // both refits (one without the gradient steps)
   double step_seconds = 0.0;
