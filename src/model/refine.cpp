@@ -240,11 +240,11 @@ double seconds_from(Clock::time_point t0) {
 }
 
 // The samples the estimate of a colour refit sums: a sixteenth of the refit's subsample, and
-// fewer as M grows (a sample costs M^2 / 2 products), so that the estimate itself takes
-// about a second or less at any M (500 samples at M = 2,000).
+// fewer as M grows (a sample costs up to M^2 / 2 products), at least 2,000 so that the two
+// timings of time_colour_refit differ by more than their noise.
 std::size_t estimate_samples(std::size_t components) {
   const double m = double(std::max<std::size_t>(components, 1));
-  return std::clamp<std::size_t>(std::size_t(2e9 / (m * m)), 256, kColourRefitSamples / 16);
+  return std::clamp<std::size_t>(std::size_t(8e9 / (m * m)), 2000, kColourRefitSamples / 16);
 }
 
 // The seconds of one colour refit: its normal equations on estimate_samples of the refit's
@@ -255,13 +255,23 @@ double time_colour_refit(const SampleSet& samples, const ProductMixture& mix, in
   const std::size_t stride = detail::subsample_stride(samples.size(), kColourRefitSamples);
   const std::size_t sparse =
       std::max(stride, detail::subsample_stride(samples.size(), estimate_samples(mix.size())));
+  // Timed on two subsamples, the second half the first: the sums cost a part per sample and a
+  // part per light (each light's M x M sums folded in), which the two times tell apart.
   auto at = Clock::now();
+  const ColourNormalEquations half =
+      colour_normal_equations(samples, mix, threads, 2 * sparse, true, stop);
+  const double t_half = seconds_from(at);
+  at = Clock::now();
   const ColourNormalEquations part =
       colour_normal_equations(samples, mix, threads, sparse, true, stop);
-  const double sums = seconds_from(at);
+  const double t_part = seconds_from(at);
+  const double n_part = double(part.samples), n_half = double(half.samples);
+  const double per_sample = n_part > n_half ? std::max(0.0, (t_part - t_half) / (n_part - n_half))
+                                            : t_part / std::max(n_part, 1.0);
+  const double per_run = std::max(0.0, t_part - per_sample * n_part);
   const double taken =
       double(samples.size()) / double(stride) * (1.0 - 1.0 / double(kValidationEvery));
-  const double scaled = sums * taken / double(std::max<std::size_t>(part.samples, 1));
+  const double scaled = per_run + per_sample * taken;
   constexpr std::size_t kSolved = 1000;
   const std::size_t m = std::min(mix.size(), kSolved);
   ColourNormalEquations eq;
