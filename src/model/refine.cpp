@@ -10,6 +10,7 @@
 #include <cmath>
 
 #include "btfgmm/core/error.hpp"
+#include "btfgmm/core/text.hpp"
 #include "core/eigen_dense.hpp"
 #include "model/grid_weights.hpp"
 #include "model/refine_internal.hpp"
@@ -207,17 +208,16 @@ double refit_where_it_validates(const SampleSet& samples, ProductMixture& mix, i
                                 double error, const GradientConfig& gradient) {
   const std::size_t stride = detail::subsample_stride(samples.size(), kColourRefitSamples);
   ProductMixture trial = mix;
-  const auto t0 = std::chrono::steady_clock::now();
+  const auto t0 = Clock::now();
   std::function<void(double)> progress;
   if (gradient.progress)
     progress = [&gradient, t0](double fraction) {
-      gradient.progress(
-          {.max_steps = gradient.max_steps,
-           .elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(),
-           .seconds = gradient.seconds,
-           .fraction = fraction,
-           .max_epochs = gradient.max_epochs,
-           .colour_refit = true});
+      gradient.progress({.max_steps = gradient.max_steps,
+                         .elapsed = seconds_since(t0),
+                         .seconds = gradient.seconds,
+                         .fraction = fraction,
+                         .max_epochs = gradient.max_epochs,
+                         .colour_refit = true});
     };
   const ColourNormalEquations eq =
       colour_normal_equations(samples, trial, threads, stride, true, gradient.stop, progress);
@@ -234,14 +234,9 @@ double refit_where_it_validates(const SampleSet& samples, ProductMixture& mix, i
 
 namespace {
 
-using Clock = std::chrono::steady_clock;
-double seconds_from(Clock::time_point t0) {
-  return std::chrono::duration<double>(Clock::now() - t0).count();
-}
-
-// The samples the estimate of a colour refit sums: a sixteenth of the refit's subsample, and
-// fewer as M grows (a sample costs up to M^2 / 2 products), at least 2,000 so that the two
-// timings of time_colour_refit differ by more than their noise.
+// The samples the estimate of a colour refit sums: at most a sixteenth of the refit's
+// subsample, fewer as M grows (a sample costs up to M^2 / 2 products), at least 2,000 so that the
+// two timings of time_colour_refit differ by more than their noise.
 std::size_t estimate_samples(std::size_t components) {
   const double m = double(std::max<std::size_t>(components, 1));
   return std::clamp<std::size_t>(std::size_t(8e9 / (m * m)), 2000, kColourRefitSamples / 16);
@@ -260,11 +255,11 @@ double time_colour_refit(const SampleSet& samples, const ProductMixture& mix, in
   auto at = Clock::now();
   const ColourNormalEquations half =
       colour_normal_equations(samples, mix, threads, 2 * sparse, true, stop);
-  const double t_half = seconds_from(at);
+  const double t_half = seconds_since(at);
   at = Clock::now();
   const ColourNormalEquations part =
       colour_normal_equations(samples, mix, threads, sparse, true, stop);
-  const double t_part = seconds_from(at);
+  const double t_part = seconds_since(at);
   const double n_part = double(part.samples), n_half = double(half.samples);
   const double per_sample = n_part > n_half ? std::max(0.0, (t_part - t_half) / (n_part - n_half))
                                             : t_part / std::max(n_part, 1.0);
@@ -286,7 +281,7 @@ double time_colour_refit(const SampleSet& samples, const ProductMixture& mix, in
   head.resize(m);
   at = Clock::now();
   refit_colour_means(eq, head);
-  const double solve = seconds_from(at) * std::pow(double(mix.size()) / double(m), 3.0);
+  const double solve = seconds_since(at) * std::pow(double(mix.size()) / double(m), 3.0);
   return scaled + solve;
 }
 
