@@ -341,7 +341,7 @@ TEST_F(BadInput, ModelThatIsAPng) {
   generate();
   fs::copy_file(p("btf/") + kImage, p("png.btfgmm"));
   expect_model_refused(p("png.btfgmm"), {p("png.btfgmm"), "is a PNG image, not a btfgmm model",
-                                         "fitted to a folder of BTF images: btfgmm fit FOLDER"});
+                                         "fitted to a folder of BTF images: fit the folder"});
 }
 
 TEST_F(BadInput, EvalAnglesOutOfRangeOrNan) {
@@ -439,11 +439,11 @@ TEST_F(BadInput, ArchiveOrImageGivenAsAModelOrAsData) {
   write_bytes(p("c.tar.gz"), std::string("\x1f\x8b\x08\x00", 4) + std::string(600, '\0'));
   expect_model_refused(p("c.tar.gz"),
                        {"'" + p("c.tar.gz") + "' is a gzip archive, not a btfgmm model",
-                        "extract it and fit the BTF images it holds: btfgmm fit FOLDER -o "
-                        "model.btfgmm"});
+                        "extract it and fit the BTF images it holds (a folder of images), "
+                        "then give the model file here"});
   write_bytes(p("b.btfgmm"), std::string("PK\x03\x04", 4) + std::string(600, '\0'));
   expect_model_refused(p("b.btfgmm"), {"is a zip archive, not a btfgmm model",
-                                       "btfgmm fit " + p("b.btfgmm") + " -o model.btfgmm"});
+                                       "fit a model to '" + p("b.btfgmm") + "'"});
   write_bytes(p("e.btfgmm"), std::string("\x76\x2f\x31\x01", 4) + std::string(600, '\0'));
   expect_model_refused(p("e.btfgmm"), {"is an OpenEXR image, not a btfgmm model"});
   // The archive given as the data to fit.
@@ -454,7 +454,7 @@ TEST_F(BadInput, ArchiveOrImageGivenAsAModelOrAsData) {
 
 TEST_F(BadInput, FolderGivenAsAModel) {
   generate();
-  const std::string fit_it = "fit a model to it first: btfgmm fit " + p("btf") + " -o model.btfgmm";
+  const std::string fit_it = "fit a model to it first, then give the model file here";
   expect_refused(run("decode " + p("btf") + " -o " + p("dec")),
                  {"'" + p("btf") + "' is a folder of images, not a model", fit_it});
   EXPECT_FALSE(fs::exists(p("dec")));
@@ -468,16 +468,18 @@ TEST_F(BadInput, CompareArgumentsSwapped) {
   expect_refused(run("compare " + p("m.btfgmm") + " " + p("btf")),
                  {"the arguments are in the wrong order", "give the BTF first, then the models",
                   "btfgmm compare " + p("btf") + " " + p("m.btfgmm")});
-  expect_refused(run("compare " + p("m.btfgmm") + " " + p("m.btfgmm")),
-                 {p("m.btfgmm") + " is a btfgmm model, not a BTF",
-                  "btfgmm info " + p("m.btfgmm") + " names it"});
+  expect_refused(
+      run("compare " + p("m.btfgmm") + " " + p("m.btfgmm")),
+      {p("m.btfgmm") + " is a btfgmm model, not a BTF", "the model's provenance names it"});
   // A model given to fit as its data: the way to go on fitting it is shown.
   expect_refused(run("fit " + p("m.btfgmm") + " -o " + p("n.btfgmm")),
-                 {"is a btfgmm model, not a BTF", "'btfgmm fit --continue " + p("m.btfgmm") +
-                                                      " --iterations N --output NEW.btfgmm'"});
+                 {"is a btfgmm model, not a BTF",
+                  "give " + p("m.btfgmm") +
+                      " to the option --continue, the iterations in all to --iterations and a "
+                      "new model file to --output"});
   // The BTF twice: the second is no model, and the fit that makes one is shown.
   expect_refused(run("compare " + p("btf") + " " + p("btf")),
-                 {"is a folder of images, not a model", "btfgmm fit " + p("btf") + " -o"});
+                 {"is a folder of images, not a model", "fit a model to it first"});
 }
 
 TEST_F(BadInput, RenderOutputInAFormatNotWritten) {
@@ -536,7 +538,7 @@ TEST_F(BadInput, AnOptionTheMethodDoesNotTakeIsRefusedByName) {
   generate();
   const CliRun r = run("fit " + p("btf") + " --method pca-btf --iterations 5 -o " + p("m.btfgmm"));
   expect_refused(r, {"--iterations cannot apply to --method pca-btf, which does not take it",
-                     "--iterations is taken by gm lpca plm-rf"});
+                     "--iterations is taken by gm, lpca, plm-rf"});
   EXPECT_FALSE(fs::exists(p("m.btfgmm")));
 }
 

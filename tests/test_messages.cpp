@@ -138,13 +138,15 @@ TEST(Messages, AModelReaderSaysWhatTheFileIsAndWhatToDo) {
   };
   std::string m = message("\x1f\x8b\x08\x00", "c.tar.gz");
   EXPECT_NE(m.find("'c.tar.gz' is a gzip archive, not a btfgmm model"), std::string::npos) << m;
-  EXPECT_NE(m.find("extract it and fit the BTF images it holds: btfgmm fit FOLDER -o "
-                   "model.btfgmm"),
+  EXPECT_NE(m.find("extract it and fit the BTF images it holds (a folder of images), then give "
+                   "the model file here"),
             std::string::npos)
       << m;
   m = message("PK\x03\x04", "UBO_CORDUROY256.zip");
   EXPECT_NE(m.find("is a zip archive, not a btfgmm model"), std::string::npos) << m;
-  EXPECT_NE(m.find("btfgmm fit UBO_CORDUROY256.zip -o model.btfgmm"), std::string::npos) << m;
+  EXPECT_NE(m.find("fit a model to 'UBO_CORDUROY256.zip', then give the model file here"),
+            std::string::npos)
+      << m;
   m = message("\xff\xd8\xff\xe0", "photo.btfgmm");
   EXPECT_NE(m.find("'photo.btfgmm' is a JPEG image, not a btfgmm model"), std::string::npos) << m;
   m = message("\x01\x02\x00", "junk.btfgmm");
@@ -154,9 +156,11 @@ TEST(Messages, AModelReaderSaysWhatTheFileIsAndWhatToDo) {
       "\x89"
       "BTFCKP\n\x02\x00\x00\x00",
       "big.ckpt");
-  EXPECT_NE(m.find("'big.ckpt' is a btfgmm fit checkpoint, not a btfgmm model"), std::string::npos)
+  EXPECT_NE(m.find("'big.ckpt' is a btfgmm checkpoint of a fit, not a btfgmm model"),
+            std::string::npos)
       << m;
-  EXPECT_NE(m.find("continue it with 'btfgmm fit --resume big.ckpt'"), std::string::npos) << m;
+  EXPECT_NE(m.find("continue it by giving 'big.ckpt' to the option --resume"), std::string::npos)
+      << m;
 }
 
 TEST(Messages, AFileIsNamedFromItsFirstBytesBeforeItIsReadWhole) {
@@ -179,8 +183,8 @@ TEST(Messages, AFolderGivenAsAModelIsNamedAndTheFitShown) {
   Btf b(DirectionSet::rings({{0, 1}}), DirectionSet::rings({{0, 1}}), 4, 4, SampleFormat::kLdr8);
   write_utia(b, dir / "btf");
   std::string m = error_of([&] { load_representation(dir / "btf"); });
-  EXPECT_NE(m.find("is a folder of images, not a model; fit a model to it first: btfgmm fit " +
-                   (dir / "btf").string() + " -o model.btfgmm"),
+  EXPECT_NE(m.find("is a folder of images, not a model; fit a model to it first, then give the "
+                   "model file here"),
             std::string::npos)
       << m;
   fs::create_directories(dir / "empty");

@@ -72,8 +72,9 @@ Error not_a_btf(const fs::path& path) {
   if (is_model_file_start(head))
     return Error(Error::Kind::kArgument,
                  fmt::format("{0} is a btfgmm model, not a BTF; give the data it was fitted to "
-                             "(btfgmm info {0} names it), or go on fitting the model with "
-                             "'btfgmm fit {1} {0} {2} N {3} NEW.btfgmm'",
+                             "(the model's provenance names it), or go on fitting the model: "
+                             "give {0} to the option {1}, the iterations in all to {2} and a new "
+                             "model file to {3}",
                              path.string(), option_name("continue"), option_name("iterations"),
                              option_name("output")));
   const std::optional<FileKind> kind = identify_file(head);
@@ -84,7 +85,8 @@ Error not_a_btf(const fs::path& path) {
       : kind->kind == C::kZip     ? "a zip is read when its name ends in .zip: rename it"
       : kind->kind == C::kImage   ? "one image is not a BTF: give the folder that holds the images"
       : kind->kind == C::kCheckpoint
-          ? fmt::format("continue the fit it holds with 'btfgmm fit `resume` {}'", path.string())
+          ? fmt::format("continue the fit it holds by giving {} to the option {}", path.string(),
+                        option_name("resume"))
           : "";
   if (fix.empty())
     return Error(Error::Kind::kArgument,
@@ -469,10 +471,11 @@ Btf BtfSource::load(const Tile& tile) const {
   const BtfInfo& info = info_;
   const Tile t = tile_inside(info, tile);
   const std::size_t images = info.lights.size() * info.views.size();
-  limits::check_memory(double(images) * t.width * t.height * 12.0,
-                       fmt::format("loading a {}x{} tile of the {} images of {}", t.width, t.height,
-                                   images, info.path.string()),
-                       "give a smaller tile (btfgmm fit `tile` X,Y,W,H)");
+  limits::check_memory(
+      double(images) * t.width * t.height * 12.0,
+      fmt::format("loading a {}x{} tile of the {} images of {}", t.width, t.height, images,
+                  info.path.string()),
+      fmt::format("give a smaller tile (the option {}: X,Y,W,H)", option_name("tile")));
   Btf btf(info.lights, info.views, t.width, t.height, info.format);
   btf.set_origin(t);
   const std::size_t nv = info.views.size();

@@ -26,7 +26,7 @@ const std::array<Magic, 17>& magics() {
       {0,
        "\x89"
        "BTFCKP\n"sv,
-       {C::kCheckpoint, "a btfgmm fit checkpoint"}},
+       {C::kCheckpoint, "a btfgmm checkpoint of a fit"}},
       {0, "\x1f\x8b"sv, {C::kArchive, "a gzip archive"}},
       {0, "BZh"sv, {C::kArchive, "a bzip2 archive"}},
       {0,

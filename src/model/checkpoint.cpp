@@ -9,6 +9,7 @@
 #include <cstring>
 
 #include "btfgmm/core/error.hpp"
+#include "btfgmm/core/text.hpp"
 #include "btfgmm/io/files.hpp"
 #include "btfgmm/model/provenance.hpp"
 #include "model/byte_io.hpp"
@@ -93,9 +94,9 @@ FitCheckpoint load_checkpoint(const std::filesystem::path& path) {
   const std::string name = path.string();
   if (bytes.size() < 16 || std::memcmp(bytes.data(), kMagic, 8) != 0)
     throw Error(Error::Kind::kFormat,
-                fmt::format("'{}' is not a btfgmm checkpoint (written by 'btfgmm fit "
-                            "`checkpoint`'); {}",
-                            name, kFix));
+                fmt::format("'{}' is not a btfgmm checkpoint (what a fit writes with the "
+                            "option {}); {}",
+                            name, option_name("checkpoint"), kFix));
   std::uint32_t stored;
   std::memcpy(&stored, bytes.data() + bytes.size() - 4, 4);
   if (std::uint32_t(crc32(0L, bytes.data(), uInt(bytes.size() - 4))) != stored)

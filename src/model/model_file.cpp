@@ -9,6 +9,7 @@
 
 #include "btfgmm/core/error.hpp"
 #include "btfgmm/core/limits.hpp"
+#include "btfgmm/core/text.hpp"
 #include "btfgmm/io/file_kind.hpp"
 #include "btfgmm/io/files.hpp"
 #include "btfgmm/model/model.hpp"
@@ -116,24 +117,25 @@ void check_magic(std::span<const std::uint8_t> bytes, const std::string& name) {
   if (!kind)
     throw Error(Error::Kind::kFormat,
                 fmt::format("'{}' is not a btfgmm model file: it does not start with the btfgmm "
-                            "magic bytes; give a .btfgmm file written by 'btfgmm fit'",
+                            "magic bytes; give a .btfgmm model file (what a fit writes)",
                             name));
   using C = FileKind::Class;
   const std::string fix =
-      kind->kind == C::kArchive ? "extract it and fit the BTF images it holds: btfgmm fit FOLDER "
-                                  "-o model.btfgmm"
-      : kind->kind == C::kZip   ? fmt::format(
-                                      "if it holds a BTF (a Bonn zip, read in place), fit "
-                                        "it: btfgmm fit {} -o model.btfgmm",
-                                      name)
-      : kind->kind == C::kImage ? "a model is fitted to a folder of BTF images: btfgmm fit "
-                                  "FOLDER -o model.btfgmm"
+      kind->kind == C::kArchive ? "extract it and fit the BTF images it holds (a folder of "
+                                  "images), then give the model file here"
+      : kind->kind == C::kZip
+          ? fmt::format(
+                "if it holds a BTF (a Bonn zip, read in place), fit a model to '{}', "
+                "then give the model file here",
+                name)
+      : kind->kind == C::kImage ? "a model is fitted to a folder of BTF images: fit the folder "
+                                  "that holds them, then give the model file here"
       : kind->kind == C::kCheckpoint
           ? fmt::format(
-                "it holds a fit that has not finished: continue it with 'btfgmm fit "
-                "`resume` {}', which writes the model",
-                name)
-          : "give a .btfgmm file written by 'btfgmm fit'";
+                "it holds a fit that has not finished: continue it by giving '{}' to "
+                "the option {}, which writes the model",
+                name, option_name("resume"))
+          : "give a .btfgmm model file (what a fit writes)";
   throw Error(Error::Kind::kFormat,
               fmt::format("'{}' is {}, not a btfgmm model; {}", name, kind->what, fix));
 }

@@ -91,7 +91,7 @@ const char* synthesis_note() {
   // A synthesis model (the texture models) makes new texture with the data's statistics: its
   // pixels are not the data's, so the pixel-wise figures measure nothing of it.
   return "synthesis: new texture with the data's statistics, the pixel-wise RMSE, PSNR and "
-         "SSIM are NOT meaningful (btfgmm compare measures its statistics)";
+         "SSIM are NOT meaningful (a comparison with the data measures its statistics)";
 }
 
 FigureCaption figure_caption(const SceneText& scene, const RenderSettings& settings,

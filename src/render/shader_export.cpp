@@ -32,7 +32,7 @@ ShaderExport export_shader(const Representation& model) {
   }
   throw Error(Error::Kind::kArgument,
               fmt::format("a {} model has no shader yet; the methods with one: {} (render it on "
-                          "the CPU with btfgmm render)",
+                          "the CPU instead)",
                           model.method(), names));
 }
 
@@ -68,7 +68,7 @@ ShaderExport read_shader_parameter_file(std::span<const std::uint8_t> bytes,
   if (bytes.size() < kParameterHeader || std::memcmp(bytes.data(), kParameterMagic, 8) != 0)
     throw Error(Error::Kind::kFormat,
                 fmt::format("'{}' is not a shader parameter file (it does not begin with "
-                            "BTFPARAM); write one with btfgmm export-shader",
+                            "BTFPARAM); export the model's shader to write one",
                             name));
   ShaderExport s;
   const std::uint32_t w = get_u32(bytes.data() + 8), h = get_u32(bytes.data() + 12);
@@ -151,7 +151,7 @@ ShaderExport ShaderBuilder::finish(bool has_mean_brdf) {
   s.texels = texels_;
   s.texels.resize(std::size_t(s.width) * std::size_t(s.height) * 4, 0.0f);
   s.glsl = fmt::format(
-      "// Written by btfgmm export-shader (docs/RENDERING.md): a {} model as the GLSL function\n"
+      "// Written by btfgmm's shader export (docs/RENDERING.md): a {} model as the GLSL function\n"
       "//   vec3 btf(vec2 uv, vec3 light, vec3 view)\n"
       "// GLSL ES 3.00 / GLSL 3.30. Bind its parameter file ({} x {} RGBA32F texels) to the\n"
       "// sampler btf_params, nearest filtering.\n"

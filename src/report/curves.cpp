@@ -88,7 +88,7 @@ std::string curves_section(std::span<const ModelComparison> models) {
   if (models.size() == 1)
     curves +=
         "<p class=\"note\">One model: compare several models of this BTF (e.g. fitted with "
-        "different sizes, or `btfgmm sweep`) to trace the rate-distortion curves.</p>";
+        "different sizes, or by a sweep) to trace the rate-distortion curves.</p>";
   else
     curves +=
         "<p class=\"note\">Rate-distortion: each method's models joined in the order of their "
