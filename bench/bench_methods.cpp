@@ -184,7 +184,7 @@ OurPca fit_ours(const btfgmm::Btf& tile, const Options& o) {
     std::printf("pca-btf not built\n");
     return r;
   }
-  btfgmm::MethodSettings s;
+  btfgmm::FitOptions s;
   s.components = o.components;
   s.threads = o.threads;
   const double t0 = now(), c0 = cpu_now();
@@ -259,7 +259,7 @@ struct Fitted {
 
 // The setting fitted to the largest crop (side halving from the tile's) whose fit is estimated
 // (from a 16 x 16 crop, linear in the pixels) within the budget.
-Fitted fit_within_budget(const btfgmm::MethodInfo& m, const btfgmm::MethodSettings& s,
+Fitted fit_within_budget(const btfgmm::MethodInfo& m, const btfgmm::FitOptions& s,
                          const btfgmm::Btf& tile, const Options& o) {
   Fitted f;
   auto fit_at = [&](int side) {
@@ -292,7 +292,7 @@ void bench_decode(const btfgmm::Btf& tile, const Options& o) {
       continue;
     const auto ladder = m.ladder(btfgmm::ModelFrame::of(tile));
     if (ladder.empty()) continue;
-    btfgmm::MethodSettings s = ladder[ladder.size() / 2];
+    btfgmm::FitOptions s = ladder[ladder.size() / 2];
     s.threads = o.threads;
     Fitted f;
     try {

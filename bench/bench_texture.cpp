@@ -221,7 +221,7 @@ int main(int argc, char** argv) {
     const Btf data = generate(g);
     std::vector<std::vector<Pair>> all;
     for (const std::string& method : o.methods) {
-      MethodSettings s;
+      FitOptions s;
       s.clusters = o.clusters;
       s.levels = o.levels;
       const auto model = o.models.empty()

@@ -26,6 +26,12 @@
 
 namespace btfgmm::cli {
 
+// A value the command line gives that the library refuses as it reads it (a number out of its
+// range, a word not among its choices): a usage error, exit status 2 as CLI11's own.
+struct UsageError : Error {
+  using Error::Error;
+};
+
 // The command's spelling of an option the library names by its field (core/text.hpp,
 // option_name): "refine_steps" is --refine-steps.
 inline std::string command_line_option(std::string_view field) {

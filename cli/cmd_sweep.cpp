@@ -20,6 +20,7 @@
 #include "btfgmm/report/report.hpp"
 #include "cli_util.hpp"
 #include "commands.hpp"
+#include "parameter_options.hpp"
 #include "stop_signals.hpp"
 #include "tile_option.hpp"
 
@@ -29,12 +30,12 @@ namespace {
 namespace fs = std::filesystem;
 
 struct SweepArguments {
-  std::string btf, tile, out, methods, precision;
+  std::string btf, tile, out, methods;
   std::vector<std::size_t> components;  // sizes instead of the ladders
-  int iterations = 0, threads = 0;
-  double refine_seconds = 0.0;  // 0: the refinement's default bound in time
-  int refine_epochs = 0;        // 0: bounded in time
-  std::uint64_t seed = 1;
+  // The fit's parameters every setting takes (precision, seed, threads, iterations, the
+  // refinement's bounds), read as fit reads them, and the fields given.
+  FitOptions options;
+  std::vector<std::string_view> fields;
   bool keep_models = false, overwrite = false, quiet = false, json = false;
   bool methods_given = false;  // --methods was given (perhaps empty)
 };
@@ -75,16 +76,12 @@ std::vector<std::string> method_names(const SweepArguments& o) {
 SweepRequest sweep_request(const SweepArguments& o) {
   SweepRequest r;
   r.methods = method_names(o);
-  if (!o.precision.empty()) r.encoding = parse_factor_encoding(o.precision, "--precision");
-  r.threads = o.threads;
-  r.seed = o.seed;
-  r.iterations = o.iterations;
-  r.refine_seconds = o.refine_seconds;
-  r.refine_epochs = o.refine_epochs;
+  r.options = o.options;
+  r.given = o.fields;
   if (!o.components.empty()) {
-    std::vector<MethodSettings> sizes;
+    std::vector<FitOptions> sizes;
     for (std::size_t c : o.components) {
-      MethodSettings s;
+      FitOptions s;
       s.components = c;
       sizes.push_back(s);
     }
@@ -232,9 +229,10 @@ nlohmann::json sweep_json(const SweepArguments& o, const Btf& tile, const SweepO
   j["lights"] = tile.lights().size();
   j["views"] = tile.views().size();
   j["bit_depth"] = to_string(tile.format());
-  j["precision"] = o.precision.empty() ? "fit's default" : o.precision;
+  j["precision"] = o.options.precision ? std::string(to_string(*o.options.precision))
+                                       : std::string("fit's default");
   j["not_iterated"] = s.not_iterated;
-  j["seed"] = o.seed;
+  j["seed"] = o.options.seed;
   j["settings"] = s.total;
   j["stopped"] = s.stopped;
   j["models"] = nlohmann::json::array();
@@ -254,7 +252,8 @@ nlohmann::json sweep_json(const SweepArguments& o, const Btf& tile, const SweepO
 // ---- the command ---------------------------------------------------------------------------
 
 void run_sweep_command(const SweepArguments& o) {
-  SweepRequest r = sweep_request(o);  // the options checked before any work
+  check_fit_options(o.options, o.fields, FitRoute::kSweep);  // before any work
+  SweepRequest r = sweep_request(o);
   check_output_folder(o.out, o.overwrite);
   const auto t0 = Clock::now();
   const BtfSource src = BtfSource::open(o.btf);
@@ -306,8 +305,9 @@ void run_sweep_command(const SweepArguments& o) {
   ro.skipped = s.skipped;
   ro.note = fmt::format(
       "{} of {} settings fitted, factors stored as {}, seed {}{}", s.models.size(), s.total,
-      o.precision.empty() ? "as fit writes them by default (gm: compact)" : o.precision, o.seed,
-      s.stopped ? " (interrupted)" : "");
+      o.options.precision ? std::string(to_string(*o.options.precision))
+                          : std::string("as fit writes them by default (gm: compact)"),
+      o.options.seed, s.stopped ? " (interrupted)" : "");
   write_report(o.out, o.btf, s.models, ro);
   if (!o.quiet)
     fmt::print(stderr, "wrote {} and {}{}\n", (fs::path(o.out) / "index.html").string(),
@@ -347,43 +347,22 @@ void register_sweep_command(CLI::App& app, Commands& commands) {
                 "The folder to write (index.html, its pictures, sweep.json; new or empty)")
       ->required();
   auto* methods = c->add_option("--methods", opt->methods, methods_help());
-  c->add_option("--precision", opt->precision,
-                "Factors stored as compact, q8, f16 or f32 for every method (the Gaussian "
-                "mixture's compact and q8 are its compact format); default: the file fit "
-                "writes for each method (compact), so that the files compared are the files a "
-                "user gets");
   c->add_option("--components", opt->components,
                 "Sizes fitted instead of each method's ladder, comma-separated: mixture "
                 "components M (gm), eigen-images (pca-btf, pca-rf), components per cluster (lpca)")
       ->delimiter(',')
-      ->check(CLI::Range(std::size_t(1), std::size_t(100000)));
-  c->add_option("--iterations", opt->iterations,
-                "Iterations of every fit that iterates (gm: EM, lpca: rounds, plm-rf: "
-                "Levenberg-Marquardt steps; the other methods fit as usual, named in the table); "
-                "default: each method's")
-      ->check(CLI::Range(1, 100000));
-  const FitOptionRule& seconds = fit_option_rule("refine_seconds");
-  const FitOptionRule& epochs = fit_option_rule("refine_epochs");
-  c->add_option("--refine-seconds", opt->refine_seconds,
-                "The most seconds each Gaussian mixture's refinement for the prediction takes, "
-                "as fit --refine-seconds (default: bounded in steps, not in time); the models "
-                "then depend on the machine and its load")
-      ->check(CLI::Range(seconds.min, seconds.max));
-  c->add_option("--refine-epochs", opt->refine_epochs,
-                "The most passes over the tile's samples each Gaussian mixture's refinement "
-                "takes, as fit --refine-epochs (default: at most " +
-                    std::to_string(btfgmm::kDefaultRefineSteps) + " Adam steps)")
-      ->check(CLI::Range(int(epochs.min), int(epochs.max)));
-  c->add_option("--seed", opt->seed, "Seed of every fit's random start")->capture_default_str();
-  c->add_option("--threads", opt->threads, "Threads (0: all cores)")
-      ->check(CLI::Range(0, 1024))
-      ->capture_default_str();
+      ->check(CLI::Range(std::size_t(find_fit_parameter("components")->min),
+                         std::size_t(find_fit_parameter("components")->max)));
+  auto texts = std::make_shared<std::map<std::string, std::string>>();
+  add_parameter_options(*c, FitRoute::kSweep, *texts);
   c->add_flag("--keep-models", opt->keep_models, "Also write every model to OUTDIR/models/");
   c->add_flag("--overwrite", opt->overwrite, "Replace the files of a non-empty output folder");
   c->add_flag("--json", opt->json, "Print sweep.json on stdout instead of the table");
   c->add_flag("-q,--quiet", opt->quiet, "No progress on stderr");
-  commands.push_back({c, [opt, methods] {
+  commands.push_back({c, [opt, methods, texts, c] {
                         opt->methods_given = methods->count() > 0;
+                        opt->fields = read_parameters(given_options(*c), *texts, opt->options,
+                                                      FitRoute::kSweep);
                         run_sweep_command(*opt);
                       }});
 }

@@ -20,7 +20,7 @@ std::string db_text(double v) {
 }
 
 // The bytes a --ratio R asks for: the tile's data, a byte a value, over R.
-std::uint64_t budget_bytes(const BudgetFitArguments& o, const Btf& tile) {
+std::uint64_t budget_bytes(const FitArguments& o, const Btf& tile) {
   if (o.budget > 0) return o.budget;
   const double raw = ModelFrame::of(tile).data_values();
   return std::uint64_t(std::floor(raw / o.ratio));
@@ -50,14 +50,18 @@ void print_candidates(const BudgetChoice& c, std::uint64_t budget) {
 
 }  // namespace
 
-void run_budget_fit(const BudgetFitArguments& o) {
+void run_budget_fit(const FitArguments& o) {
+  BudgetRequest r;
+  r.options = o.options;
+  r.given = o.fields;
+  btfgmm::check_fit_options(r.options, r.given, FitRoute::kBudget,
+                            o.given.count("--budget") ? "budget" : "ratio");
   if (o.input.empty() || o.out.empty())
     throw Error(Error::Kind::kArgument, "fit --budget needs an input BTF and -o MODEL");
   check_output_file(o.out, o.overwrite);
   const auto t0 = Clock::now();
   const BtfSource src = BtfSource::open(o.input);
   const Btf tile = src.load(tile_option(src, o.tile, o.quiet));
-  BudgetRequest r;
   r.budget = budget_bytes(o, tile);
   if (r.budget == 0)
     throw Error(
@@ -66,11 +70,6 @@ void run_budget_fit(const BudgetFitArguments& o) {
                     "a smaller ratio",
                     o.ratio, ModelFrame::of(tile).data_values()));
   r.source = {o.input, src.info().width, src.info().height};
-  r.seed = o.seed;
-  r.threads = o.threads;
-  r.iterations = o.iterations;
-  r.refine_seconds = o.refine_seconds;
-  r.refine_epochs = o.refine_epochs;
   r.option_spelling = command_line_option;
   if (!o.quiet) {
     fmt::print(stderr, "budget {} bytes for the {}x{} tile ({:.0f} data bytes, 1:{:.1f})\n",

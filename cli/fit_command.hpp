@@ -14,39 +14,30 @@
 
 namespace btfgmm::cli {
 
-// The fit's command-line arguments (the library's settings: btfgmm::FitOptions).
+// The fit's command-line arguments: the fit's parameters, read straight into the library's
+// options (their flags and help made from the methods' declarations, methods/parameters.hpp),
+// and the options of the job itself (its files, checkpoints, log, budget, what is printed).
 struct FitArguments {
-  std::string input, out, tile, precision, method = "gm", objective;
-  std::size_t components = 0, clusters = 0, degree = 0;  // 0: the method's default
-  int iterations = 0;                                    // 0: the method's default
-  int levels = 0;                                        // 0: the method's default
-  int refine_steps = 0;                                  // 0: until converged
-  double refine_seconds = 0.0;                           // 0: the default bound
-  int refine_epochs = 0;                                 // 0: bounded in time
-  double epsilon = 0.0;
-  std::uint64_t seed = 1;
-  int threads = 0;
-  std::string device = "auto";  // where EM runs: auto, cpu or gpu
+  std::string input, out, tile;
+  btfgmm::FitOptions options;
   bool overwrite = false, quiet = false;
   std::string checkpoint, resume, continue_from, log;
   int checkpoint_every = 1;
   std::uint64_t budget = 0;  // --budget BYTES (0: none)
   double ratio = 0.0;        // --ratio R (0: none)
   // The options given on the command line, by long name ("--components"), each with the
-  // names it goes by ("-M/--components") for messages.
+  // names it goes by ("-M/--components") for messages; and by field, in the declarations'
+  // order (the parameters and the job's options alike).
   std::map<std::string, std::string> given;
+  std::vector<std::string_view> fields;
+  bool has(std::string_view field) const;
 };
 
-// The options given, by the fields the library names them (methods/fit_options.hpp).
-std::vector<std::string_view> given_fields(const FitArguments& o);
-
-// Options that cannot apply to what the fit does (`route`, from `source`) are errors, never
-// ignored: the library's one check of the options given (btfgmm::check_fit_options).
+// The library's one check of the options given (btfgmm::check_fit_options), its message with
+// the options named as they were given ("-M/--components"). Options that cannot apply to what
+// the fit does (`route`, from `source`) are errors, never ignored.
 void check_fit_arguments(const FitArguments& o, btfgmm::FitRoute route,
                          std::string_view source = {});
-
-// The settings of the fit as the library takes them (btfgmm/methods/fit_options.hpp).
-btfgmm::FitOptions library_options(const FitArguments& o);
 
 void print_loaded(const btfgmm::FitTile& t, double seconds);
 

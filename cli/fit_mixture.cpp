@@ -43,7 +43,7 @@ btfgmm::FitRequest new_fit_request(const FitArguments& o) {
                 "interrupted fit, or --continue MODEL --iterations N -o MODEL to go on with a "
                 "finished one)");
   check_fit_arguments(o, btfgmm::FitRoute::kNew);
-  btfgmm::FitRequest r = btfgmm::mixture_fit_request(library_options(o), o.input, o.out);
+  btfgmm::FitRequest r = btfgmm::mixture_fit_request(o.options, o.input, o.out);
   r.checkpoint = o.checkpoint;
   return r;
 }
@@ -55,8 +55,8 @@ btfgmm::FitRequest resume_fit_request(const FitArguments& o) {
   btfgmm::FitRequest r = btfgmm::resume_request(o.resume);
   if (!o.checkpoint.empty()) r.checkpoint = o.checkpoint;
   // A checkpoint holds EM's state, before any refinement: the objective is the command's.
-  r.config.objective =
-      btfgmm::parse_objective(o.objective.empty() ? "prediction" : o.objective, "--objective");
+  r.config.objective = btfgmm::parse_objective(
+      o.options.objective.empty() ? "prediction" : o.options.objective, "--objective");
   return r;
 }
 
@@ -64,12 +64,13 @@ btfgmm::FitRequest resume_fit_request(const FitArguments& o) {
 // parameters, on its data (the input, or the source its provenance records).
 btfgmm::FitRequest continue_fit_request(const FitArguments& o) {
   check_fit_arguments(o, btfgmm::FitRoute::kContinue, o.continue_from);
-  if (!o.given.count("--iterations") || o.out.empty())
+  if (!o.has("iterations") || o.out.empty())
     throw Error(Error::Kind::kArgument,
                 fmt::format("--continue {} needs --iterations N (the total number of EM "
                             "iterations, more than the model has run) and -o MODEL",
                             o.continue_from));
-  btfgmm::FitRequest r = btfgmm::continue_request(o.continue_from, o.input, o.iterations, o.out);
+  btfgmm::FitRequest r =
+      btfgmm::continue_request(o.continue_from, o.input, o.options.iterations, o.out);
   r.checkpoint = o.checkpoint;
   return r;
 }
@@ -80,14 +81,13 @@ btfgmm::FitRequest fit_request(const FitArguments& o) {
   btfgmm::FitRequest r = !o.resume.empty()          ? resume_fit_request(o)
                          : !o.continue_from.empty() ? continue_fit_request(o)
                                                     : new_fit_request(o);
-  if (r.resume && o.given.count("--iterations")) r.config.em.max_iterations = o.iterations;
-  if (r.resume && o.given.count("--epsilon")) r.config.em.epsilon = o.epsilon;
+  if (r.resume && o.has("iterations")) r.config.em.max_iterations = o.options.iterations;
+  if (r.resume && o.has("epsilon")) r.config.em.epsilon = *o.options.epsilon;
   // Resumed or continued: checked against the objective (a continuation's is its model's).
-  if (o.given.count("--refine-steps")) btfgmm::set_refine_steps(r.config, o.refine_steps);
-  btfgmm::set_refine_bounds(r.config, o.refine_seconds, o.refine_epochs);
+  if (r.resume) btfgmm::set_refinement_options(r.config, o.options);
   r.checkpoint_every = o.checkpoint_every;
-  r.config.em.threads = o.threads;
-  r.config.device = *btfgmm::parse_device_choice(o.device);
+  r.config.em.threads = o.options.threads;
+  r.config.device = btfgmm::fit_device(o.options);
   r.config.em.stop = &g_stop;
   return r;
 }

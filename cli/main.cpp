@@ -55,6 +55,9 @@ int main(int argc, char** argv) {
   try {
     for (const auto& c : commands)
       if (*c.app) c.run();
+  } catch (const btfgmm::cli::UsageError& err) {
+    fmt::print(stderr, "btfgmm: error: {}\n", btfgmm::cli::command_line_text(err.what()));
+    return 2;
   } catch (const btfgmm::Error& err) {
     fmt::print(stderr, "btfgmm: error: {}\n", btfgmm::cli::command_line_text(err.what()));
     return 1;

@@ -34,15 +34,8 @@ PyObject* bases(PyObject* a, PyObject* b) {
   return py::make_tuple(py::handle(a), py::handle(b)).release().ptr();
 }
 
-// The options a library message names (core/text.hpp, option_name), as this module's messages
-// spell them: as fit()'s keywords, which are the library's field names ("refine_steps"), so that
-// a Python caller is told about the argument it passed, not about a command-line flag.
-std::string option_spelling(std::string_view field) {
-  return std::string(field);
-}
-
 std::string message_text(std::string_view message) {
-  return spell_options(message, option_spelling);
+  return spell_options(message, option_spelling, "=");
 }
 
 ErrorClasses register_errors(py::module_& m) {

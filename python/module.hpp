@@ -9,6 +9,7 @@
 #include <cstdint>
 #include <memory>
 #include <string>
+#include <string_view>
 
 #include <fmt/format.h>
 
@@ -40,6 +41,14 @@ std::string path_of(const py::handle& h, const char* what);
 py::object to_python(const nlohmann::json& j);
 // A direction set as an n x 2 float64 array of (theta, phi) in degrees.
 py::array_t<double> directions_array(const DirectionSet& s);
+
+// The options a library message names (core/text.hpp, option_name), as this module's messages
+// spell them: as fit()'s keywords, which are the library's field names ("refine_steps"), so that
+// a Python caller is told about the argument it passed, not about a command-line flag; with a
+// value, as it was passed ("epsilon=5": spell_options's separator "=").
+inline std::string option_spelling(std::string_view field) {
+  return std::string(field);
+}
 
 void bind_model(py::module_& m);
 void bind_data(py::module_& m);

@@ -12,6 +12,7 @@
 #include <optional>
 #include <string>
 #include <utility>
+#include <variant>
 #include <vector>
 
 #include "module.hpp"
@@ -198,33 +199,54 @@ class FitWatch {
   PyObject *type_ = nullptr, *value_ = nullptr, *trace_ = nullptr;
 };
 
-Model fit(const py::object& data, const std::string& method, const py::object& tile,
-          std::size_t components, std::size_t clusters, std::size_t degree, int iterations,
-          std::optional<double> epsilon, std::uint64_t seed, int threads,
-          std::optional<std::string> precision, std::optional<std::string> objective, int levels,
-          int refine_steps, double refine_seconds, int refine_epochs, const std::string& device,
-          const py::object& progress, bool quiet) {
+// A keyword's value as the declarations take it: a whole number, a real number or a word.
+ParameterValue keyword_value(const py::handle& value) {
+  const std::string shown = py::str(py::repr(value));
+  if (py::isinstance<py::str>(value)) return value.cast<std::string>();
+  if (py::isinstance<py::bool_>(value) ||
+      !(py::isinstance<py::int_>(value) || py::isinstance<py::float_>(value)))
+    return shown;  // refused as declared (check_parameter_value) with what it takes
+  if (py::isinstance<py::float_>(value)) return value.cast<double>();
+  try {
+    return value.cast<std::int64_t>();
+  } catch (const py::cast_error&) {
+    return value.cast<double>();  // beyond 64 bits: out of every range
+  }
+}
+
+// fit()'s keywords read into the options as the declarations say (each value checked as
+// declared: set_parameter), and the fields given, in the declarations' order.
+std::vector<std::string_view> read_keywords(const py::kwargs& keywords, FitOptions& o) {
+  std::vector<std::string_view> names;
+  for (const FitParameter* p : fit_parameters())
+    if (!std::holds_alternative<std::monostate>(p->member)) names.push_back(p->field);
+  std::vector<std::string_view> given;
+  for (const auto& [key, value] : keywords) {
+    const std::string name = key.cast<std::string>();
+    const FitParameter* p = find_fit_parameter(name);
+    if (!p || std::holds_alternative<std::monostate>(p->member))
+      throw Error(Error::Kind::kArgument,
+                  fmt::format("fit: no option '{}'{}; the options are {}", name,
+                              did_you_mean(name, names), fmt::join(names, ", ")));
+    if (value.is_none()) continue;  // the default
+    set_parameter(o, *p, keyword_value(value));
+  }
+  for (const std::string_view field : names)
+    if (keywords.contains(std::string(field)) && !keywords[py::str(std::string(field))].is_none())
+      given.push_back(field);
+  return given;
+}
+
+Model fit(const py::object& data, const py::object& tile, const py::object& progress, bool quiet,
+          const py::kwargs& keywords) {
   const DataArg d = data_arg(data, "fit");
   if (d.tile && !tile.is_none())
     throw Error(Error::Kind::kArgument,
                 "fit: a Btf from read_btf is fitted on its own tile; give its path to fit another "
                 "tile");
   FitOptions o;
-  o.method = method;
-  o.components = components;
-  o.clusters = clusters;
-  o.degree = degree;
-  o.iterations = iterations;
-  o.epsilon = epsilon;
-  o.seed = seed;
-  o.threads = threads;
-  o.precision = precision.value_or("");
-  o.objective = objective.value_or("");
-  o.levels = levels;
-  o.refine_steps = refine_steps;
-  o.refine_seconds = refine_seconds;
-  o.refine_epochs = refine_epochs;
-  o.device = device == "auto" ? "" : device;
+  const std::vector<std::string_view> given = read_keywords(keywords, o);
+  check_fit_options(o, given, FitRoute::kNew);  // the one check, before any work
   const std::string text = tile_text(tile);
   FitWatch watch(progress, quiet);
   FitProgress p;
@@ -269,37 +291,24 @@ py::object compare(const py::object& data, const Model& model, bool force) {
   return to_python(j);
 }
 
-// fit()'s documentation, with the methods that take each option from the one table of the
-// fit's options (methods/fit_options.hpp), which also checks them.
+// fit()'s documentation: each keyword with its help from the methods' declarations
+// (methods/parameters.hpp), the same sentences as `btfgmm fit --help`.
 const char* fit_doc() {
   static const std::string doc = [] {
     std::string d =
-        "Fits a model to a BTF (a path, or a Btf from read_btf: its tile) with the options and "
-        "defaults of `btfgmm fit` (0 or None: the method's default); the same data, options "
-        "and seed give the model `btfgmm fit` writes. progress(fraction, stage) is called as it "
-        "goes; without it a line on sys.stderr tells each EM iteration and every 5 s of the "
-        "other stages, unless quiet=True. Ctrl-C stops it: KeyboardInterrupt, but in the "
-        "mixture's refinement for the prediction, where the model of the lowest held-out error "
-        "met is returned (a RuntimeWarning says so), as the command writes it. Options of some "
-        "methods only:";
-    const std::vector<std::string_view> keywords = given_fields(FitOptions{.method = "-",
-                                                                           .components = 1,
-                                                                           .clusters = 1,
-                                                                           .degree = 1,
-                                                                           .iterations = 1,
-                                                                           .levels = 1,
-                                                                           .epsilon = 0.0,
-                                                                           .precision = "-",
-                                                                           .objective = "-",
-                                                                           .refine_steps = 1,
-                                                                           .refine_seconds = 1,
-                                                                           .refine_epochs = 1,
-                                                                           .device = "-"});
-    for (const FitOptionRule& rule : fit_option_rules())
-      if (rule.methods != "all" &&
-          std::find(keywords.begin(), keywords.end(), rule.field) != keywords.end())
-        d += fmt::format(" {} ({});", rule.field, rule.methods);
-    d.back() = '.';
+        "fit(data, *, tile=None, progress=None, quiet=False, **options): fits a model to a BTF "
+        "(a path, or a Btf from read_btf: its tile) with the options and defaults of `btfgmm "
+        "fit` (None: the method's default); the same data, options and seed give the model "
+        "`btfgmm fit` writes. progress(fraction, stage) is called as it goes; without it a line "
+        "on sys.stderr tells each EM iteration and every 5 s of the other stages, unless "
+        "quiet=True. Ctrl-C stops it: KeyboardInterrupt, but in the mixture's refinement for "
+        "the prediction, where the model of the lowest held-out error met is returned (a "
+        "RuntimeWarning says so), as the command writes it. A value out of its range or an "
+        "option a method does not take raises ArgumentError naming the keyword. The options:";
+    for (const FitParameter* p : fit_parameters())
+      if (!std::holds_alternative<std::monostate>(p->member))
+        d += fmt::format("\n  {}: {}", p->field,
+                         spell_options(parameter_help(p->field), option_spelling, "="));
     return d;
   }();
   return doc.c_str();
@@ -308,12 +317,7 @@ const char* fit_doc() {
 }  // namespace
 
 void bind_fit(py::module_& m) {
-  m.def("fit", &fit, py::arg("data"), py::kw_only(), py::arg("method") = "gm",
-        py::arg("tile") = py::none(), py::arg("components") = 0, py::arg("clusters") = 0,
-        py::arg("degree") = 0, py::arg("iterations") = 0, py::arg("epsilon") = py::none(),
-        py::arg("seed") = 1, py::arg("threads") = 0, py::arg("precision") = py::none(),
-        py::arg("objective") = py::none(), py::arg("levels") = 0, py::arg("refine_steps") = 0,
-        py::arg("refine_seconds") = 0.0, py::arg("refine_epochs") = 0, py::arg("device") = "auto",
+  m.def("fit", &fit, py::arg("data"), py::kw_only(), py::arg("tile") = py::none(),
         py::arg("progress") = py::none(), py::arg("quiet") = false, fit_doc());
   m.def("compare", &compare, py::arg("data"), py::arg("model"), py::kw_only(),
         py::arg("force") = false,

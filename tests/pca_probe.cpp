@@ -123,10 +123,10 @@ btfgmm::Btf small_tile() {
 // The squared error of a method's decode (f32 factors) against the tile.
 double method_error(const btfgmm::Btf& tile, const std::string& method, std::size_t c,
                     std::size_t clusters = 0) {
-  btfgmm::MethodSettings s;
+  btfgmm::FitOptions s;
   s.components = c;
   s.clusters = clusters;
-  s.encoding = btfgmm::FactorEncoding::kF32;
+  s.precision = btfgmm::FactorEncoding::kF32;
   const auto r = btfgmm::find_method(method).fit(tile, s);
   const btfgmm::Btf d = r->decode(tile.lights(), tile.views(), tile.width(), tile.height(), 0.0);
   double e = 0.0;
@@ -186,10 +186,10 @@ void lpca_cases(Writer& w, const btfgmm::Btf& tile) {
            number(method_error(tile, "lpca", c, 1)) + " " + number(p.discarded_energy) + " " +
            brdfs);
   }
-  btfgmm::MethodSettings s;
+  btfgmm::FitOptions s;
   s.clusters = 1;
   s.components = 3;
-  s.encoding = btfgmm::FactorEncoding::kF32;
+  s.precision = btfgmm::FactorEncoding::kF32;
   const auto r = btfgmm::find_method("lpca").fit(tile, s);
   const btfgmm::Btf d = r->decode(tile.lights(), tile.views(), tile.width(), tile.height(), 0.0);
   std::vector<float> recon(texels * dims);

@@ -165,14 +165,14 @@ TEST(CompactFactors, EachMethodsCompactFileIsSmallerThanItsQ8File) {
     for (const char* name : {"pca-btf", "pca-rf", "lpca", "ptm-rf", "plm-rf"}) {
       SCOPED_TRACE(std::string(material) + " " + name);
       const MethodInfo& method = find_method(name);
-      EXPECT_EQ(method.fit_encoding, FactorEncoding::kCompact);
-      MethodSettings s;
+      EXPECT_EQ(default_file_encoding(method), FactorEncoding::kCompact);
+      FitOptions s;
       const bool pca = std::string(name).find("pca") != std::string::npos;
       s.components = pca ? 2 : 0;
       s.clusters = std::string(name) == "lpca" ? 2 : 0;
-      s.encoding = FactorEncoding::kQ8;
+      s.precision = FactorEncoding::kQ8;
       const auto q8 = method.fit(tile, s);
-      s.encoding = method.fit_encoding;
+      s.precision = default_file_encoding(method);
       const auto compact = method.fit(tile, s);
       EXPECT_EQ(compact->encoding(), FactorEncoding::kCompact);
       const std::vector<std::uint8_t> bytes = representation_file_bytes(*compact);

@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "btfgmm/btfgmm.hpp"
+#include "btfgmm/measure/budget.hpp"
 #include "test_util.hpp"
 
 namespace btfgmm {
@@ -84,6 +85,49 @@ TEST_F(FitOptionsTest, AnotherMethodRecordsWhatTheCommandRecords) {
   EXPECT_EQ(s[1], (std::pair<std::string, std::string>{"components", "3"}));
 }
 
+// A fit's options are checked once, by its front end (the command, Python: check_fit_options
+// before any work): the fit behind it, a sweep's settings and a budget's candidates check
+// nothing again.
+TEST_F(FitOptionsTest, OptionsAreCheckedOncePerFit) {
+  FitOptions pca;
+  pca.method = "pca-btf";
+  pca.components = 2;
+  FitOptions gm;
+  gm.components = 3;
+  gm.iterations = 2;
+  gm.refine_steps = 5;
+  gm.threads = 1;
+  const std::uint64_t before = fit_option_checks();
+  for (const FitOptions& o : {pca, gm}) {
+    check_fit_options(o, given_fields(o), FitRoute::kNew);
+    ASSERT_NE(fit_representation(o, p("btf"), nullptr, {}), nullptr);
+  }
+  EXPECT_EQ(fit_option_checks() - before, 2u);
+  const Btf tile = BtfSource::open(p("btf")).load({.x = 0, .y = 0, .width = 8, .height = 8});
+  SweepRequest q;
+  q.methods = {"gm", "pca-btf"};
+  FitOptions two, three;
+  two.components = 2;
+  three.components = 3;
+  q.ladders["gm"] = {two, three};
+  q.options.iterations = 2;
+  q.options.threads = 1;
+  q.given = given_fields(q.options);
+  check_fit_options(q.options, q.given, FitRoute::kSweep);
+  const SweepOutcome swept = run_sweep(tile, q);
+  EXPECT_GE(swept.models.size(), 3u);
+  EXPECT_EQ(swept.models[0].model->provenance().fit.iterations.size(), 2u);  // `given` applied
+  BudgetRequest b;
+  b.budget = 100000;
+  b.methods = {"pca-btf"};
+  b.options.seed = 3;
+  b.given = given_fields(b.options);
+  check_fit_options(b.options, b.given, FitRoute::kBudget, "budget");
+  const BudgetChoice chosen = choose_within_budget(tile, b);
+  EXPECT_GE(chosen.candidates.size(), 2u);
+  EXPECT_EQ(fit_option_checks() - before, 4u);  // one a fit, a sweep, a budget
+}
+
 TEST(FitOptions, DefaultsAreTheCommands) {
   const FitRequest r = mixture_fit_request({}, "in", "out");
   EXPECT_EQ(r.config.components, 600u);
@@ -96,18 +140,29 @@ TEST(FitOptions, DefaultsAreTheCommands) {
   steps.refine_steps = 1000;
   EXPECT_EQ(mixture_fit_request(steps, "in", "out").config.refinement_steps, 1000);
   FitOptions f16;
-  f16.precision = "f16";
+  f16.precision = FactorEncoding::kF16;
   EXPECT_EQ(mixture_fit_request(f16, "in", "out").precision, Precision::kF16);
-  EXPECT_EQ(method_settings({}, find_method("pca-btf")).encoding, FactorEncoding::kCompact);
-  EXPECT_EQ(method_settings({}, find_method("pca-btf")).components, 0u);  // the method's own
+  EXPECT_EQ(default_file_encoding(find_method("pca-btf")), FactorEncoding::kCompact);
+  // The defaults the declarations state are the fit's own.
+  const MethodInfo& gm = find_method("gm");
+  EXPECT_EQ(method_parameter(gm, "components")->default_text, std::to_string(r.config.components));
+  EXPECT_EQ(method_parameter(gm, "iterations")->default_text,
+            std::to_string(r.config.em.max_iterations));
+  EXPECT_EQ(method_parameter(gm, "objective")->default_text, "prediction");
+  EXPECT_EQ(method_parameter(gm, "precision")->default_text, "compact");
+  for (const MethodInfo& m : all_methods()) {
+    ASSERT_NE(method_parameter(m, "precision"), nullptr) << m.name;  // every method stores
+    EXPECT_EQ(to_string(default_file_encoding(m)),
+              m.name == "3d-car" || m.name == "2d-car" || m.name == "gmrf" ? "f16" : "compact")
+        << m.name;
+  }
+  EXPECT_EQ(method_parameter(find_method("plm-rf"), "degree")->default_text,
+            std::to_string(PlmRf::kDefaultDegree));
 }
 
-// The error of the mixture's fit request for `o`, and of `method`'s settings.
-std::string mixture_error(const FitOptions& o) {
-  return test::error_of([&] { mixture_fit_request(o, "in", "out"); });
-}
-std::string settings_error(const FitOptions& o, const char* method) {
-  return test::error_of([&] { method_settings(o, find_method(method)); });
+// The error of the one check of `o` (the fields it sets given), for a new fit.
+std::string check_error(const FitOptions& o) {
+  return test::error_of([&] { check_fit_options(o, given_fields(o), FitRoute::kNew); });
 }
 
 TEST(FitOptions, OptionsThatCannotApplyAreErrors) {
@@ -115,22 +170,163 @@ TEST(FitOptions, OptionsThatCannotApplyAreErrors) {
     return error.find(text) != std::string::npos;
   };
   FitOptions o;
-  o.precision = "f8";
-  EXPECT_TRUE(has(mixture_error(o), "--precision 'f8': the Gaussian mixture stores compact"));
+  EXPECT_TRUE(has(test::error_of([&] {
+                    set_parameter(o, *find_fit_parameter("precision"), std::string("f8"));
+                  }),
+                  "--precision f8: not one of its choices; give compact, f32, f16 or q8"));
   o = {};
   o.clusters = 4;
-  EXPECT_TRUE(has(mixture_error(o), "--clusters applies to --method lpca only"));
+  EXPECT_TRUE(has(check_error(o),
+                  "--clusters cannot apply to --method gm, which does not take "
+                  "it (--clusters is taken by lpca, 3d-car, 2d-car, gmrf)"));
   o = {};
+  o.method = "lpca";
   o.epsilon = 0.01;
-  EXPECT_TRUE(has(settings_error(o, "lpca"), "--epsilon cannot apply to --method lpca"));
+  EXPECT_TRUE(has(check_error(o),
+                  "--epsilon cannot apply to --method lpca: they belong to the "
+                  "Gaussian mixture's fit"));
   o = {};
+  o.method = "pca-btf";
   o.refine_steps = 50;
-  EXPECT_TRUE(has(settings_error(o, "pca-btf"), "--refine-steps cannot apply to --method pca-btf"));
+  EXPECT_TRUE(has(check_error(o), "--refine-steps cannot apply to --method pca-btf"));
+  o.method = "gm";
   o.objective = "likelihood";
-  EXPECT_TRUE(has(mixture_error(o), "--refine-steps applies to the objective prediction only"));
+  EXPECT_TRUE(has(check_error(o), "--refine-steps applies to the objective prediction only"));
   o = {};
   o.refine_steps = -3;
-  EXPECT_TRUE(has(mixture_error(o), "--refine-steps -3: give 1 to 100000 Adam steps"));
+  EXPECT_EQ(check_error(o),
+            "--refine-steps -3: out of range; give a whole number from 1 to 100000");
+  o = {};
+  o.method = "pca-btff";
+  EXPECT_TRUE(has(check_error(o), "unknown method 'pca-btff' (did you mean 'pca-btf'?)"));
+}
+
+// `o`'s field of `p` set to `x` without the check (a value a C++ caller could set).
+void set_unchecked(FitOptions& o, const FitParameter& p, double x) {
+  std::visit(
+      [&](auto member) {
+        using M = decltype(member);
+        if constexpr (std::is_same_v<M, std::size_t FitOptions::*>)
+          o.*member = std::size_t(x);
+        else if constexpr (std::is_same_v<M, int FitOptions::*>)
+          o.*member = int(x);
+        else if constexpr (std::is_same_v<M, double FitOptions::*> ||
+                           std::is_same_v<M, std::optional<double> FitOptions::*>)
+          o.*member = x;
+      },
+      p.member);
+}
+
+// Every number a declaration bounds is refused just outside its range and taken at its ends:
+// as a front end reads it (set_parameter, the command's and Python's way) and by the one check
+// of a new fit, a sweep and a budget wherever the field may be given, with one message.
+TEST(FitOptions, EveryRangeIsRefusedTheSameOnEveryRoute) {
+  int refused = 0;
+  for (const FitParameter* p : fit_parameters()) {
+    if (std::holds_alternative<std::monostate>(p->member) || !p->is_number()) continue;
+    const std::vector<std::string_view> takers = methods_taking(p->field);
+    FitOptions base;
+    if (!takers.empty()) base.method = std::string(takers[0]);
+    const auto value = [p](double x) {
+      return p->type == ParameterType::kReal ? ParameterValue(x) : ParameterValue(std::int64_t(x));
+    };
+    for (const double bad : {p->min - 1, p->max + 1}) {
+      if (bad >= p->max && p->max > 1e15) continue;  // past what a double tells from the max
+      FitOptions o = base;
+      const std::string e = test::error_of([&] { set_parameter(o, *p, value(bad)); });
+      EXPECT_EQ(
+          e.rfind(test::command_line_option(p->field) + " " + value_text(value(bad)) + ": ", 0), 0u)
+          << p->field << " " << bad << ": " << e;
+      ++refused;
+      if (bad < p->max) continue;  // below: 0, the default, for most
+      set_unchecked(o, *p, bad);
+      for (const FitRoute route : {FitRoute::kNew, FitRoute::kSweep, FitRoute::kBudget}) {
+        if (!p->takes_route(route)) continue;
+        EXPECT_EQ(test::error_of([&] {
+                    check_fit_options(o, std::vector<std::string_view>{p->field}, route, "budget");
+                  }),
+                  e)
+            << p->field;
+      }
+    }
+    for (const FitRoute route : {FitRoute::kNew, FitRoute::kSweep, FitRoute::kBudget}) {
+      if (!p->takes_route(route)) continue;
+      FitOptions o = base;
+      EXPECT_NO_THROW(set_parameter(o, *p, value(p->max)));
+      EXPECT_NO_THROW(
+          check_fit_options(o, std::vector<std::string_view>{p->field}, route, "budget"))
+          << p->field;
+    }
+  }
+  EXPECT_GE(refused, 20);
+  FitOptions o;
+  EXPECT_EQ(test::error_of([&] { set_parameter(o, *find_fit_parameter("epsilon"), 0.5 * 3); }),
+            "--epsilon 1.5: out of range; give a number from 0 to 1");
+  EXPECT_EQ(test::error_of([&] { set_parameter(o, *find_fit_parameter("components"), 2.5); }),
+            "--components 2.5: not a whole number; give a whole number from 1 to 100000");
+  EXPECT_EQ(test::error_of([&] {
+              set_parameter(o, *find_fit_parameter("iterations"),
+                            parse_parameter(*find_fit_parameter("iterations"), "ten"));
+            }),
+            "--iterations ten: not a number; give a whole number from 1 to 100000");
+}
+
+// Each method declares a field once; the declarations of a field agree on its type and range
+// (so that one option spells it), and each has its routes and help.
+TEST(FitOptions, TheDeclarationsAgree) {
+  for (const MethodInfo& m : all_methods()) {
+    std::vector<std::string_view> fields;
+    for (const FitParameter& p : m.parameters) {
+      EXPECT_EQ(std::count(fields.begin(), fields.end(), p.field), 0) << m.name << " " << p.field;
+      fields.push_back(p.field);
+      const FitParameter& first = *find_fit_parameter(p.field);
+      EXPECT_EQ(p.type, first.type) << p.field;
+      EXPECT_EQ(p.min, first.min) << p.field;
+      EXPECT_EQ(p.max, first.max) << p.field;
+      EXPECT_NE(p.routes, 0u) << p.field;
+      EXPECT_LE(p.min, p.max) << p.field;
+      const bool held = !std::holds_alternative<std::monostate>(p.member);
+      EXPECT_TRUE(!held || !p.help.empty()) << p.field;
+    }
+  }
+  EXPECT_EQ(methods_taking("levels"), (std::vector<std::string_view>{"3d-car", "2d-car", "gmrf"}));
+  EXPECT_TRUE(methods_taking("seed").empty());  // a common field
+  EXPECT_EQ(find_fit_parameter("refine_steps")->max, kMaxRefineSteps);
+  EXPECT_EQ(parameter_help("degree"),
+            "plm-rf: the degree l of the per-image polynomial (default 4)");
+  EXPECT_EQ(find_fit_parameter("no_such_field"), nullptr);
+}
+
+// One check for every route: the options refused are named in the declarations' order.
+TEST(FitOptions, OneCheckRefusesWhatCannotApply) {
+  const auto refused = [](std::vector<std::string_view> given, std::string_view method,
+                          FitRoute route, std::string_view source) {
+    FitOptions o;
+    o.method = std::string(method);
+    return test::error_of([&] { check_fit_options(o, given, route, source); });
+  };
+  EXPECT_EQ(refused({"tile", "seed", "iterations"}, "gm", FitRoute::kResume, "c.ckpt"),
+            "--tile, --seed cannot apply with --resume: the fit goes on with the input, tile, "
+            "components, seed, precision and output its checkpoint 'c.ckpt' holds; leave them "
+            "out");
+  EXPECT_EQ(refused({"log"}, "lpca", FitRoute::kNew, ""),
+            "--log cannot apply to --method lpca: they belong to the Gaussian mixture's fit "
+            "(--method gm) only; leave it out");
+  EXPECT_NE(refused({"levels", "iterations"}, "gm", FitRoute::kBudget, "ratio")
+                .find("--levels cannot apply with --ratio: it chooses the method"),
+            std::string::npos);
+  EXPECT_NE(
+      refused({"epsilon"}, "gm", FitRoute::kSweep, "").find("--epsilon cannot apply to a sweep"),
+      std::string::npos);
+  FitOptions gm;
+  EXPECT_NO_THROW(check_fit_options(gm,
+                                    std::vector<std::string_view>{"iterations", "epsilon", "log"},
+                                    FitRoute::kContinue, "m.btfgmm"));
+  FitOptions o;
+  o.method = "lpca";
+  o.clusters = 3;
+  o.epsilon = 0.1;
+  EXPECT_EQ(given_fields(o), (std::vector<std::string_view>{"method", "epsilon", "clusters"}));
 }
 
 TEST(FitOptions, HemisphereDirectionsWrapPhiAndRefuseThetaOffTheHemisphere) {
@@ -151,52 +347,6 @@ TEST(FitOptions, OtherDataIsRefusedUnlessForced) {
             std::string::npos);
   refuse_other_data(other, true, "compare");
   refuse_other_data({DataMatch::kNotRecorded, "none"}, false, "compare");
-}
-
-// The table of the fit's options names only methods the registry knows, gives each option
-// one row, and a range where it has one in order.
-TEST(FitOptions, TheTableNamesKnownMethodsOnceEach) {
-  std::vector<std::string_view> fields;
-  for (const FitOptionRule& r : fit_option_rules()) {
-    EXPECT_EQ(std::count(fields.begin(), fields.end(), r.field), 0) << r.field;
-    fields.push_back(r.field);
-    EXPECT_NE(r.routes, 0u) << r.field;
-    EXPECT_LE(r.min, r.max) << r.field;
-    if (r.methods == "all") continue;
-    std::size_t known = 0;
-    for (const MethodInfo& m : all_methods()) known += r.takes(m.name);
-    EXPECT_EQ(known, std::size_t(std::count(r.methods.begin(), r.methods.end(), ' ') + 1))
-        << r.field << ": " << r.methods;
-  }
-  EXPECT_TRUE(fit_option_rule("levels").takes("gmrf"));
-  EXPECT_FALSE(fit_option_rule("levels").takes("gm"));
-  EXPECT_FALSE(fit_option_rule("clusters").takes("lpc"));  // whole names only
-  EXPECT_EQ(fit_option_rule("refine_steps").max, kMaxRefineSteps);
-}
-
-// One check for every route: the options refused are named in the table's order, each once.
-TEST(FitOptions, OneCheckRefusesWhatCannotApply) {
-  const auto refused = [](std::vector<std::string_view> given, std::string_view method,
-                          FitRoute route, std::string_view source) {
-    return test::error_of([&] { check_fit_options(given, method, route, source); });
-  };
-  EXPECT_EQ(refused({"seed", "tile", "iterations"}, "gm", FitRoute::kResume, "c.ckpt"),
-            "--tile, --seed cannot apply with --resume: the fit goes on with the input, tile, "
-            "components, seed, precision and output its checkpoint 'c.ckpt' holds; leave them "
-            "out");
-  EXPECT_EQ(refused({"log"}, "lpca", FitRoute::kNew, ""),
-            "--log cannot apply to --method lpca: they belong to the Gaussian mixture's fit "
-            "(--method gm) only; leave it out");
-  EXPECT_NE(refused({"levels", "iterations"}, "gm", FitRoute::kBudget, "ratio")
-                .find("--levels cannot apply with --ratio: it chooses the method"),
-            std::string::npos);
-  EXPECT_NO_THROW(check_fit_options(std::vector<std::string_view>{"iterations", "epsilon", "log"},
-                                    "gm", FitRoute::kContinue, "m.btfgmm"));
-  FitOptions o;
-  o.method = "lpca";
-  o.clusters = 3;
-  o.epsilon = 0.1;
-  EXPECT_EQ(given_fields(o), (std::vector<std::string_view>{"method", "clusters", "epsilon"}));
 }
 
 }  // namespace

@@ -56,7 +56,7 @@ TEST(Methods, TheMixtureBehindTheInterfaceIsTheMixture) {
 TEST(Methods, AStopDuringTheMixturesRefinementStopsItsFit) {
   const Btf tile = test::generated_tile("knit", 6, 5, "rings:0/1,40/6", "rings:0/1,40/3");
   std::atomic<bool> stop{false};
-  MethodSettings s;
+  FitOptions s;
   s.components = 4;
   s.iterations = 2;
   s.stop = &stop;

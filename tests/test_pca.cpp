@@ -205,17 +205,17 @@ ModelFrame paper_frame() {
 }
 
 // Small settings of each method, and settings with as many components as the data's rank.
-MethodSettings small_settings(const std::string& method, FactorEncoding e) {
-  MethodSettings s;
+FitOptions small_settings(const std::string& method, FactorEncoding e) {
+  FitOptions s;
   s.components = method == "pca-btf" ? 4 : 2;
   if (method == "lpca") s.clusters = 3;
-  s.encoding = e;
+  s.precision = e;
   return s;
 }
 
-MethodSettings full_rank_settings(const std::string& method) {
-  MethodSettings s;
-  s.encoding = FactorEncoding::kF32;
+FitOptions full_rank_settings(const std::string& method) {
+  FitOptions s;
+  s.precision = FactorEncoding::kF32;
   if (method == "pca-btf") s.components = 29;  // 30 images
   if (method == "pca-rf") s.components = 4;    // 5 lights per view
   if (method == "lpca") {
@@ -230,7 +230,7 @@ const std::vector<std::string>& methods() {
   return m;
 }
 
-std::unique_ptr<Representation> fit(const std::string& method, const MethodSettings& s) {
+std::unique_ptr<Representation> fit(const std::string& method, const FitOptions& s) {
   return find_method(method).fit(small_tile(), s);
 }
 
@@ -379,7 +379,7 @@ TEST(PcaBtf, LadderSpansTheRatios) {
   ASSERT_GE(ladder.size(), 4u);
   for (std::size_t i = 1; i < ladder.size(); ++i)
     EXPECT_GT(ladder[i].components, ladder[i - 1].components);
-  const auto ratio = [&](const MethodSettings& s) {
+  const auto ratio = [&](const FitOptions& s) {
     return f.data_values() / double(pca_btf_parameter_count(f, s.components));
   };
   EXPECT_NEAR(ratio(ladder.front()), 500.0, 100.0);
@@ -387,7 +387,7 @@ TEST(PcaBtf, LadderSpansTheRatios) {
 }
 
 TEST(PcaBtf, BadSettingsNameTheOption) {
-  MethodSettings s;
+  FitOptions s;
   s.components = 30;
   EXPECT_EQ(test::error_of([&] { fit("pca-btf", s); }),
             "--components 30: pca-btf takes 1..29 for this tile of 30 images");
@@ -397,7 +397,7 @@ TEST(PcaBtf, BadSettingsNameTheOption) {
 }
 
 TEST(PcaBtf, FactorsAreThePcaOfTheImages) {
-  MethodSettings s = small_settings("pca-btf", FactorEncoding::kF32);
+  FitOptions s = small_settings("pca-btf", FactorEncoding::kF32);
   const auto r = fit("pca-btf", s);
   const auto& p = dynamic_cast<const PcaBtf&>(*r);
   EXPECT_EQ(p.components(), 4u);
@@ -429,7 +429,7 @@ TEST(PcaRf, LadderSpansWhatAPerViewPcaReaches) {
   const ModelFrame f = paper_frame();
   const auto ladder = find_method("pca-rf").ladder(f);
   ASSERT_GE(ladder.size(), 3u);
-  const auto ratio = [&](const MethodSettings& s) {
+  const auto ratio = [&](const FitOptions& s) {
     return f.data_values() / double(pca_rf_parameter_count(f, s.components));
   };
   EXPECT_EQ(ladder.front().components, 1u);  // 1:40, the most a per-view PCA compresses
@@ -438,7 +438,7 @@ TEST(PcaRf, LadderSpansWhatAPerViewPcaReaches) {
 }
 
 TEST(PcaRf, BadSettingsNameTheOption) {
-  MethodSettings s;
+  FitOptions s;
   s.components = 5;
   EXPECT_EQ(test::error_of([&] { fit("pca-rf", s); }),
             "--components 5: pca-rf takes 1..4 for this tile of 5 lights a view");
@@ -471,7 +471,7 @@ TEST(PcaRf, EachViewIsItsOwnPca) {
 // rank-c PCA of the texel-BRDF matrix (here against the shared PCA; tests/numpy_pca_check.py
 // checks it against numpy's SVD), and with full rank both reproduce the data.
 TEST(Lpca, OneClusterIsThePcaOfTheTexelBrdfs) {
-  MethodSettings s = small_settings("lpca", FactorEncoding::kF32);
+  FitOptions s = small_settings("lpca", FactorEncoding::kF32);
   s.clusters = 1;
   s.components = 5;
   const auto r = fit("lpca", s);
@@ -489,7 +489,7 @@ TEST(Lpca, OneClusterIsThePcaOfTheTexelBrdfs) {
             worst, std::abs(pca[t * 90 + p * 3 + ch] - double(d.data()[p * 192 + t * 3 + ch])));
   EXPECT_LT(worst, 2e-3);
   // The same rank on images is another model: PCA BTF with 5 eigen-images leaves another error.
-  MethodSettings b = small_settings("pca-btf", FactorEncoding::kF32);
+  FitOptions b = small_settings("pca-btf", FactorEncoding::kF32);
   b.components = 5;
   const double lpca_db = psnr(d.data(), small_tile().data()),
                btf_db = psnr(decode_measured(*fit("pca-btf", b)).data(), small_tile().data());
@@ -498,7 +498,7 @@ TEST(Lpca, OneClusterIsThePcaOfTheTexelBrdfs) {
 
 TEST(Lpca, NoTexelWouldMoveAtTheEnd) {
   const auto x = detail::texel_brdfs(small_tile());
-  MethodSettings s;
+  FitOptions s;
   s.seed = 5;
   const detail::LocalPca l = detail::fit_local_pca(x, 64, 90, 4, 2, 100, s);
   ASSERT_TRUE(l.converged);
@@ -512,18 +512,18 @@ TEST(Lpca, NoTexelWouldMoveAtTheEnd) {
   for (std::uint32_t a : l.cluster) ++count[a];
   for (std::size_t n : count) EXPECT_GT(n, 0u);
   // The method stores that fit: the same clusters, converged.
-  MethodSettings m;
+  FitOptions m;
   m.clusters = 4;
   m.components = 2;
   m.iterations = 100;
   m.seed = 5;
-  m.encoding = FactorEncoding::kF32;
+  m.precision = FactorEncoding::kF32;
   const auto r = fit("lpca", m);
   const auto& lp = dynamic_cast<const Lpca&>(*r);
   EXPECT_TRUE(lp.rounds().converged);
   EXPECT_EQ(std::vector<std::uint32_t>(lp.cluster_of().begin(), lp.cluster_of().end()), l.cluster);
   // Local beats global at the same number of components a texel.
-  MethodSettings one = m;
+  FitOptions one = m;
   one.clusters = 1;
   EXPECT_GT(psnr(decode_measured(lp).data(), small_tile().data()),
             psnr(decode_measured(*fit("lpca", one)).data(), small_tile().data()));
@@ -553,7 +553,7 @@ TEST(Lpca, LadderSpansTheRatios) {
   const auto ladder = find_method("lpca").ladder(f);
   ASSERT_GE(ladder.size(), 4u);
   std::vector<double> ratios;
-  for (const MethodSettings& s : ladder)
+  for (const FitOptions& s : ladder)
     ratios.push_back(f.data_values() / double(lpca_parameter_count(f, s.clusters, s.components)));
   for (std::size_t i = 1; i < ratios.size(); ++i) EXPECT_LT(ratios[i], ratios[i - 1]);
   EXPECT_NEAR(ratios.front(), 303.0, 1.0);  // k = 1, c = 1: the most LPCA compresses here
@@ -561,7 +561,7 @@ TEST(Lpca, LadderSpansTheRatios) {
 }
 
 TEST(Lpca, BadSettingsNameTheOption) {
-  MethodSettings s;
+  FitOptions s;
   s.clusters = 65;
   s.components = 2;
   EXPECT_EQ(test::error_of([&] { fit("lpca", s); }),

@@ -183,7 +183,7 @@ TEST(Provenance, OlderFilesReadWithNoneRecorded) {
 
 TEST(Provenance, DataIsCheckedAgainstTheRecord) {
   const Btf corduroy = small_tile("corduroy"), knit = small_tile("knit");
-  MethodSettings s;
+  FitOptions s;
   s.components = 2;
   const DataFingerprint fp = fingerprint_of(corduroy, {"corduroy8/", 8, 8});
   const auto model = fit_and_record(find_method("pca-btf"), corduroy, s, fp);
@@ -212,7 +212,7 @@ TEST(Provenance, EveryMethodsFileRecordsItsDataAndFit) {
   const Btf tile = small_tile("corduroy");
   const DataFingerprint fp = fingerprint_of(tile, {"corduroy8/", 8, 8});
   for (const MethodInfo& method : all_methods()) {
-    MethodSettings s;
+    FitOptions s;
     const bool gm = method.name == "gm", fixed = method.name == "ptm-rf" || method.name == "plm-rf";
     const bool subspaces =
         method.name == "3d-car" || method.name == "2d-car" || method.name == "gmrf";

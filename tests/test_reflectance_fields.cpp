@@ -61,9 +61,9 @@ struct Biquadratic {
   }
 };
 
-MethodSettings at(FactorEncoding e) {
-  MethodSettings s;
-  s.encoding = e;
+FitOptions at(FactorEncoding e) {
+  FitOptions s;
+  s.precision = e;
   return s;
 }
 
@@ -229,7 +229,7 @@ TEST(ReflectanceFields, ModelFilesRoundTripAtEveryEncoding) {
   for (FactorEncoding e : {FactorEncoding::kF32, FactorEncoding::kF16, FactorEncoding::kQ8,
                            FactorEncoding::kCompact}) {
     SCOPED_TRACE(std::string(to_string(e)));
-    MethodSettings s = at(e);
+    FitOptions s = at(e);
     check_model_file(*find_method("ptm-rf").fit(tile, s));
     s.degree = 2;
     s.iterations = 10;
@@ -248,7 +248,7 @@ TEST(ReflectanceFields, BadSettingsNameTheOptionAndRange) {
   const Btf ring(DirectionSet::rings({{45, 8}}), test_views(), 2, 2, SampleFormat::kLdr8);
   e = error_of([&] { fit_ptm_rf(ring, {}); });
   EXPECT_NE(e.find("fix only 5 of its 6"), std::string::npos) << e;
-  MethodSettings s;
+  FitOptions s;
   s.components = 4;
   e = error_of([&] { fit_ptm_rf(tile, s); });
   EXPECT_NE(e.find("--components 4: ptm-rf has a fixed size"), std::string::npos) << e;

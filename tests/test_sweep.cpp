@@ -44,10 +44,17 @@ Btf tiny_tile() {
   return generate(g);
 }
 
-MethodSettings components(std::size_t m) {
-  MethodSettings s;
+FitOptions components(std::size_t m) {
+  FitOptions s;
   s.components = m;
   return s;
+}
+
+// The request's option `field` given as `value` on every setting that takes it (as `sweep`'s
+// options do).
+void give(SweepRequest& r, std::string_view field, const ParameterValue& value) {
+  set_parameter(r.options, *find_fit_parameter(field), value);
+  if (std::find(r.given.begin(), r.given.end(), field) == r.given.end()) r.given.push_back(field);
 }
 
 // gm at M = 2 and 4, then M = 5000 (more than the tile's 1600 samples), 2 EM iterations.
@@ -55,7 +62,7 @@ SweepRequest gm_request() {
   SweepRequest r;
   r.methods = {"gm"};
   r.ladders["gm"] = {components(2), components(4), components(5000)};
-  r.iterations = 2;
+  give(r, "iterations", std::int64_t(2));
   return r;
 }
 
@@ -145,17 +152,19 @@ TEST(Sweep, WritesModelFilesThatLoadAsTheModelsMeasured) {
 }
 
 // Unless asked, each method is stored as `fit` stores it by default (the mixture compact, the
-// others their fit_encoding); an asked encoding applies to every method.
+// others their declared default); an asked encoding applies to every method.
 TEST(Sweep, StoresEachMethodAsFitWritesItUnlessAsked) {
   const Btf tile = tiny_tile();
   SweepRequest r;
   r.methods = {"gm", "pca-btf"};
   r.ladders["gm"] = {components(2)};
   r.ladders["pca-btf"] = {components(2)};
-  r.iterations = 2;
+  give(r, "iterations", std::int64_t(2));
   for (const std::optional<FactorEncoding> asked :
        {std::optional<FactorEncoding>(), std::optional(FactorEncoding::kF32)}) {
-    r.encoding = asked;
+    r.options.precision = asked;
+    r.given = {"iterations"};
+    if (asked) r.given.push_back("precision");
     const SweepOutcome s = run_sweep(tile, r);
     ASSERT_EQ(s.models.size(), 2u);
     const auto& gm = dynamic_cast<const GaussianMixture&>(*s.models[0].model);
@@ -164,7 +173,6 @@ TEST(Sweep, StoresEachMethodAsFitWritesItUnlessAsked) {
     EXPECT_EQ(pca.encoding(),
               asked ? FactorEncoding::kF32 : default_file_encoding(find_method("pca-btf")));
   }
-  EXPECT_EQ(default_file_encoding(find_method("pca-btf")), find_method("pca-btf").fit_encoding);
 }
 
 // --iterations applies to the methods that iterate; the others fit as usual (not dropped) and
@@ -174,11 +182,11 @@ TEST(Sweep, IterationsDropNoSettingAndASynthesisIsNotOnTheFront) {
   SweepRequest r;
   r.methods = {"gm", "ptm-rf", "gmrf"};
   r.ladders["gm"] = {components(2)};
-  MethodSettings two_subspaces;
+  FitOptions two_subspaces;
   two_subspaces.clusters = 2;
   two_subspaces.levels = 1;
   r.ladders["gmrf"] = {two_subspaces};
-  r.iterations = 2;
+  give(r, "iterations", std::int64_t(2));
   GenerateConfig g;  // ptm-rf needs 6 lights or more, at two elevations
   g.material = "knit";
   g.size = 8;
@@ -222,7 +230,7 @@ TEST(Sweep, ChecksTheRequestAndStopsOnTheFlag) {
   EXPECT_TRUE(s.stopped);
   EXPECT_TRUE(s.models.empty());
   EXPECT_EQ(s.total, find_method("gm").ladder(ModelFrame::of(tile)).size());
-  EXPECT_EQ(settings_text(MethodSettings{}), "the method's defaults");
+  EXPECT_EQ(settings_text(FitOptions{}), "the method's defaults");
 }
 
 // The refinement's bounds apply to the mixture alone: in epochs its models are the same with
@@ -234,11 +242,11 @@ TEST(Sweep, RefinementBoundsApplyToTheMixtureAndMakeItsModelsReproducible) {
   r.methods = {"gm", "pca-btf"};
   r.ladders["gm"] = {components(4)};
   r.ladders["pca-btf"] = {components(2)};
-  r.iterations = 2;
-  r.refine_epochs = 2;
+  give(r, "iterations", std::int64_t(2));
+  give(r, "refine_epochs", std::int64_t(2));
   std::vector<std::vector<std::uint8_t>> payloads;
   for (int threads : {1, 2}) {
-    r.threads = threads;
+    give(r, "threads", std::int64_t(threads));
     const SweepOutcome s = run_sweep(tile, r);
     ASSERT_EQ(s.models.size(), 2u) << (s.skipped.empty() ? "" : s.skipped[0].message);
     EXPECT_EQ(s.settings[0], "components 4, iterations 2, refine epochs 2");
@@ -251,12 +259,14 @@ TEST(Sweep, RefinementBoundsApplyToTheMixtureAndMakeItsModelsReproducible) {
     payloads.push_back(gm.payload());
   }
   EXPECT_EQ(payloads[0], payloads[1]);
-  r.refine_epochs = 0;
-  r.refine_seconds = -1;
-  EXPECT_NE(error_of([&] { run_sweep(tile, r); }).find("--refine-seconds -1: give"),
+  r.options.refine_seconds = -1;  // set past the one check a front end makes
+  EXPECT_NE(error_of([&] {
+              check_fit_options(r.options, std::vector<std::string_view>{"refine_seconds"},
+                                FitRoute::kSweep);
+            }).find("--refine-seconds -1: out of range; give"),
             std::string::npos);
-  r.refine_seconds = 0;
-  r.refine_epochs = 3;
+  r.options.refine_seconds = 0;
+  give(r, "refine_epochs", std::int64_t(3));
   r.methods = {"pca-btf"};
   r.ladders.erase("gm");
   EXPECT_NE(error_of([&] { run_sweep(tile, r); }).find("which is not swept"), std::string::npos);
@@ -349,7 +359,7 @@ TEST(Sweep, ReportOfSeveralMethodsHasACurveEachAndTheirImages) {
   r.methods = {"gm", "pca-btf"};
   r.ladders["gm"] = {components(2), components(4)};
   r.ladders["pca-btf"] = {components(1), components(3)};
-  r.iterations = 2;
+  give(r, "iterations", std::int64_t(2));
   const SweepOutcome s = run_sweep(tiny_tile(), r);
   ASSERT_EQ(s.models.size(), 4u);
   EXPECT_EQ(s.models[2].name, "pca-btf-c1");

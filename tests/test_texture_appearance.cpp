@@ -102,7 +102,7 @@ class TextureAppearance : public ::testing::TestWithParam<Case> {};
 // largest (a streak), no more values at 0 or 255 than the data has.
 TEST_P(TextureAppearance, EveryImageKeepsItsColourWithoutStreaksOrSaturation) {
   const Btf data = material(GetParam().material);
-  MethodSettings s;
+  FitOptions s;
   s.clusters = 4;
   const auto model = find_method(GetParam().method).fit(data, s);
   const Btf synthesis = model->decode(data.lights(), data.views(), 32, 32, 0);
@@ -142,7 +142,7 @@ INSTANTIATE_TEST_SUITE_P(Materials, TextureAppearance,
 // at lags 1-4 in x and y, against its data image's: the mean difference over the images.
 TEST_P(TextureAppearance, TheReliefKeepsTheMaterialsStructure) {
   const Btf data = material(GetParam().material);
-  MethodSettings s;
+  FitOptions s;
   s.clusters = 4;
   const auto model = find_method(GetParam().method).fit(data, s);
   const TextureStatistics t =
@@ -159,7 +159,7 @@ TEST_P(TextureAppearance, TheReliefKeepsTheMaterialsStructure) {
 // A fitted model's file says it holds the image moments, predicted, and the relief structure
 // (flags kImageMoments | kPredictedImageMoments | kReliefStructure, format 8).
 TEST(TextureAppearance, AFittedModelStoresItsImageMoments) {
-  MethodSettings s;
+  FitOptions s;
   s.clusters = 2;
   const auto model = find_method("2d-car").fit(material("leather"), s);
   EXPECT_EQ(model->file_flags(), kImageMoments | kPredictedImageMoments | kReliefStructure);
@@ -180,7 +180,7 @@ TEST(TextureAppearance, TheImageMomentsOfEightyOneByEightyOneImagesAreCompact) {
   g.material = "knit";
   g.size = 16;
   g.seed = 5;
-  const auto model = find_method("gmrf").fit(generate(g), MethodSettings{});
+  const auto model = find_method("gmrf").fit(generate(g), FitOptions{});
   EXPECT_EQ(model->size_text(), "c = 15");
   EXPECT_LT(representation_file_bytes(*model).size(), 29000u);
 }

@@ -38,7 +38,7 @@ const Btf& tile16() {
 }
 
 std::unique_ptr<Representation> fitted(std::string_view method, std::size_t clusters = 4) {
-  MethodSettings s;
+  FitOptions s;
   s.clusters = clusters;
   s.seed = 9;
   return find_method(method).fit(tile16(), s);
@@ -127,7 +127,7 @@ TEST_P(TextureMethod, CompareMeasuresStatistics) {
 INSTANTIATE_TEST_SUITE_P(Methods, TextureMethod, ::testing::Values("3d-car", "2d-car", "gmrf"));
 
 TEST(TextureMethods, SettingsTheyDoNotTakeAreRefused) {
-  MethodSettings s;
+  FitOptions s;
   s.components = 3;
   EXPECT_NE(error_of([&] { find_method("gmrf").fit(tile16(), s); }).find("--components 3: gmrf"),
             std::string::npos);
@@ -151,7 +151,7 @@ TEST(TextureMethods, ASynthesisLargerThanTheTileKeepsTheDatasVariance) {
   g.lights = DirectionSet::parse("spiral:9");
   g.views = DirectionSet::parse("spiral:4");
   const Btf data = generate(g);
-  MethodSettings s;
+  FitOptions s;
   s.clusters = 3;
   s.levels = 2;
   const auto model = find_method("2d-car").fit(data, s);
@@ -174,7 +174,7 @@ TEST(TextureMethods, ASynthesisLargerThanTheTileKeepsTheDatasVariance) {
 TEST(TextureMethods, PyramidLevelsAsAskedWithinWhatTheTileHolds) {
   for (const char* method : {"3d-car", "2d-car", "gmrf"}) {
     SCOPED_TRACE(method);
-    MethodSettings s;
+    FitOptions s;
     s.clusters = 2;
     s.levels = 1;
     const auto one = find_method(method).fit(tile16(), s);
@@ -200,12 +200,14 @@ TEST(TextureMethods, PyramidLevelsAsAskedWithinWhatTheTileHolds) {
   FitOptions o;
   o.method = "pca-btf";
   o.levels = 2;
-  EXPECT_NE(error_of([&] {
-              method_settings(o, find_method("pca-btf"));
-            }).find("--levels 2 cannot apply to --method pca-btf"),
+  EXPECT_NE(error_of([&] { check_fit_options(o, given_fields(o), FitRoute::kNew); })
+                .find("--levels cannot apply to --method pca-btf, which does not take it (--levels "
+                      "is taken by 3d-car, 2d-car, gmrf)"),
             std::string::npos);
   o.method = "gm";
-  EXPECT_NE(error_of([&] { mixture_fit_request(o, "in", "out"); }).find("--levels applies to"),
+  EXPECT_NE(error_of([&] {
+              check_fit_options(o, given_fields(o), FitRoute::kNew);
+            }).find("--levels cannot apply to --method gm"),
             std::string::npos);
 }
 
@@ -215,12 +217,11 @@ TEST(TextureMethods, PrecisionSetsTheRangeMapsStorage) {
   FitOptions o;
   o.method = "3d-car";
   o.clusters = 2;
-  EXPECT_EQ(method_settings(o, find_method("3d-car")).encoding, FactorEncoding::kF16);
+  EXPECT_EQ(default_file_encoding(find_method("3d-car")), FactorEncoding::kF16);
   std::vector<std::size_t> sizes;
   for (const char* p : {"f32", "f16", "q8"}) {
-    o.precision = p;
-    const MethodSettings s = method_settings(o, find_method("3d-car"));
-    const auto m = find_method("3d-car").fit(tile16(), s);
+    set_parameter(o, *method_parameter(find_method("3d-car"), "precision"), std::string(p));
+    const auto m = find_method("3d-car").fit(tile16(), o);
     EXPECT_EQ(to_string(m->encoding()), p);
     const auto back = read_representation(representation_file_bytes(*m), "p.btfgmm");
     EXPECT_EQ(back->encoding(), m->encoding());
@@ -233,7 +234,7 @@ TEST(TextureMethods, PrecisionSetsTheRangeMapsStorage) {
 }
 
 TEST(TextureMethods, APixelWiseMethodHasNoSeedAndNoStatistics) {
-  MethodSettings s;
+  FitOptions s;
   s.components = 2;
   auto pca = find_method("pca-btf").fit(tile16(), s);
   EXPECT_FALSE(pca->synthesises());

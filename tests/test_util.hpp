@@ -32,15 +32,18 @@ inline Btf generated_tile(const std::string& material, int size, std::uint64_t s
   return generate(g);
 }
 
+// The command's flag of a field (cli/cli_util.hpp, command_line_option): "--refine-steps".
+inline std::string command_line_option(std::string_view field) {
+  std::string flag = "--" + std::string(field);
+  for (char& c : flag)
+    if (c == '_') c = '-';
+  return flag;
+}
+
 // A library message as the command shows it: the options it names (core/text.hpp,
-// option_name) spelled as the command's flags (cli/cli_util.hpp, command_line_option).
+// option_name) spelled as the command's flags.
 inline std::string as_the_command_shows(const std::string& message) {
-  return spell_options(message, [](std::string_view field) {
-    std::string flag = "--" + std::string(field);
-    for (char& c : flag)
-      if (c == '_') c = '-';
-    return flag;
-  });
+  return spell_options(message, command_line_option);
 }
 
 // The message of the btfgmm::Error `f` throws, as the command shows it; a test failure if it

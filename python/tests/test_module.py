@@ -224,8 +224,35 @@ def test_errors_are_exceptions_with_the_library_messages(work, tmp_path):
         btfgmm.fit(work["btf"], method="pca-btf", refine_seconds=5)
     with pytest.raises(ValueError, match="exists; give a new name or pass overwrite=True"):
         model.save(work["pca"])
-    with pytest.raises(TypeError):
-        btfgmm.fit(work["btf"], componnets=5)  # a misspelt option is no silent default
+    # A misspelt option is no silent default.
+    with pytest.raises(btfgmm.ArgumentError, match="no option 'componnets' .did you mean 'components'"):
+        btfgmm.fit(work["btf"], componnets=5)
+
+
+# Every value the command refuses by range, Python refuses with the same rule, naming its
+# keyword as passed; and sweep and budget refuse the same values (the library's one check).
+@pytest.mark.parametrize("method,field,value", [
+    ("gm", "epsilon", 5), ("gm", "iterations", 0), ("gm", "components", 0),
+    ("gm", "refine_epochs", 0), ("gm", "refine_steps", 0), ("gm", "refine_seconds", 0.5),
+    ("gm", "threads", 2000), ("gm", "seed", -1), ("gm", "objective", "best"),
+    ("gm", "device", "tpu"), ("gm", "precision", "f8"), ("lpca", "clusters", 0),
+    ("plm-rf", "degree", 65), ("3d-car", "levels", 17), ("gm", "iterations", 2.5)])
+def test_python_refuses_what_the_command_refuses(work, tmp_path, method, field, value):
+    with pytest.raises(btfgmm.ArgumentError) as python:
+        btfgmm.fit(work["btf"], method=method, **{field: value})
+    flag = "--" + field.replace("_", "-")
+    r = subprocess.run([CLI, "fit", work["btf"], "--method", method, flag, str(value), "-o",
+                        str(tmp_path / "m.btfgmm")], capture_output=True, text=True)
+    assert r.returncode != 0 and not (tmp_path / "m.btfgmm").exists()
+    command = r.stderr.strip().removeprefix("btfgmm: error: ").replace("-M/--components", flag)
+    assert str(python.value).startswith(f"{field}={value}: "), str(python.value)
+    assert "; give " in str(python.value)
+    assert command == str(python.value).replace(f"{field}={value}", f"{flag} {value}", 1)
+    if field in ("iterations", "refine_epochs", "refine_seconds", "threads", "seed"):
+        for route in (["sweep", work["btf"], "--tile", "0,0,4,4", "-o", str(tmp_path / "s")],
+                      ["fit", work["btf"], "--budget", "9000", "-o", str(tmp_path / "b.btfgmm")]):
+            r = subprocess.run([CLI, *route, flag, str(value)], capture_output=True, text=True)
+            assert r.stderr.strip().removeprefix("btfgmm: error: ") == command, route[0]
 
 
 def test_progress_and_stopping_a_fit(work):

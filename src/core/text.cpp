@@ -114,17 +114,26 @@ bool is_field_character(char c) {
 
 }  // namespace
 
+std::string option_value(std::string_view field, std::string_view value) {
+  return fmt::format("`{}={}`", field, value);
+}
+
 std::string spell_options(std::string_view message,
-                          const std::function<std::string(std::string_view field)>& spelling) {
+                          const std::function<std::string(std::string_view field)>& spelling,
+                          std::string_view value_separator) {
   std::string out;
   std::size_t i = 0;
   while (i < message.size()) {
     std::size_t end = i + 1;
     if (message[i] == '`')
       while (end < message.size() && is_field_character(message[end])) ++end;
-    if (message[i] == '`' && end > i + 1 && end < message.size() && message[end] == '`') {
+    const bool named = message[i] == '`' && end > i + 1 && end < message.size();
+    const std::size_t close = named && message[end] == '=' ? message.find('`', end) : end;
+    if (named && close != std::string_view::npos && message[close] == '`') {
       out += spelling(message.substr(i + 1, end - i - 1));
-      i = end + 1;
+      if (close > end)
+        out += std::string(value_separator) + std::string(message.substr(end + 1, close - end - 1));
+      i = close + 1;
     } else {
       out += message[i++];
     }

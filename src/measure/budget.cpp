@@ -44,19 +44,15 @@ NotedModel with_note(const Representation& m, std::uint64_t budget, const Budget
 // One setting of `method` fitted and measured as run_sweep does (its file read back); none if
 // the method refused it for the tile (recorded in `out`).
 std::optional<ModelComparison> fit_setting(const Btf& tile, const BudgetRequest& r,
-                                           const MethodInfo& method, const MethodSettings& s,
+                                           const MethodInfo& method, const FitOptions& s,
                                            BudgetChoice& out) {
   SweepRequest q;
   q.source = r.source;
   q.methods = {std::string(method.name)};
   q.ladders[std::string(method.name)] = {s};
-  q.threads = r.threads;
-  q.seed = r.seed;
-  if (method.name == kMixtureMethod) {
-    q.iterations = r.iterations;
-    q.refine_seconds = r.refine_seconds;
-    q.refine_epochs = r.refine_epochs;
-  }
+  q.options = r.options;
+  for (const std::string_view f : r.given)  // those this method takes
+    if (method_parameter(method, f)) q.given.push_back(f);
   q.progress = r.progress;
   q.stop = r.stop;
   SweepOutcome o = run_sweep(tile, q);
@@ -77,11 +73,10 @@ std::vector<const MethodInfo*> budget_methods(const BudgetRequest& r) {
 
 // The one size (components, clusters, degree) in which two settings of a ladder differ, or
 // null when none or several do (then no setting lies between them).
-using SizeField = std::size_t MethodSettings::*;
-SizeField varying_size(const MethodSettings& a, const MethodSettings& b) {
+using SizeField = std::size_t FitOptions::*;
+SizeField varying_size(const FitOptions& a, const FitOptions& b) {
   SizeField out = nullptr;
-  for (SizeField f :
-       {&MethodSettings::components, &MethodSettings::clusters, &MethodSettings::degree})
+  for (SizeField f : {&FitOptions::components, &FitOptions::clusters, &FitOptions::degree})
     if (a.*f != b.*f) {
       if (out) return nullptr;
       out = f;
@@ -91,7 +86,7 @@ SizeField varying_size(const MethodSettings& a, const MethodSettings& b) {
 
 // A setting fitted: its file's bytes (with the choice's note), whether it fits.
 struct Probe {
-  MethodSettings settings;
+  FitOptions settings;
   std::uint64_t bytes = 0;
   bool fits = false;
 };
@@ -109,9 +104,9 @@ class MethodSearch {
   void run(std::shared_ptr<Representation>& smallest, std::uint64_t& smallest_bytes) {
     smallest_ = &smallest;
     smallest_bytes_ = &smallest_bytes;
-    const std::vector<MethodSettings> ladder = m_.ladder(ModelFrame::of(tile_));
+    const std::vector<FitOptions> ladder = m_.ladder(ModelFrame::of(tile_));
     std::optional<Probe> below, fits, over;
-    std::optional<MethodSettings> refused;  // the first rung above `fits` the method refused
+    std::optional<FitOptions> refused;  // the first rung above `fits` the method refused
     std::size_t over_rung = 0;
     for (std::size_t k = 0; k < ladder.size() && !over; ++k) {
       const std::optional<Probe> p = fit(ladder[k]);
@@ -131,7 +126,7 @@ class MethodSearch {
     if (over_rung + 1 >= ladder.size()) return;
     const SizeField f = varying_size(ladder[over_rung], ladder[over_rung + 1]);
     if (!f || over->settings.*f <= 1) return;
-    MethodSettings least = over->settings;
+    FitOptions least = over->settings;
     least.*f = 1;
     if (const std::optional<Probe> p = fit(least); p && p->fits) between(*p, *over);
   }
@@ -147,7 +142,7 @@ class MethodSearch {
   // Above the largest rung, which fits (largest_size_above). `refused`, a rung the method
   // refused, caps the sizes.
   void above(const std::optional<Probe>& below, const Probe& top,
-             const std::optional<MethodSettings>& refused) {
+             const std::optional<FitOptions>& refused) {
     const SizeField f = below ? varying_size(below->settings, top.settings)
                               : (refused ? varying_size(top.settings, *refused) : nullptr);
     if (!f) return;
@@ -162,9 +157,9 @@ class MethodSearch {
   }
 
   // `base` with its size `f` set to each size asked, fitted.
-  FitSize fit_size(const MethodSettings& base, SizeField f) {
+  FitSize fit_size(const FitOptions& base, SizeField f) {
     return [this, base, f](std::size_t size) -> std::optional<SizeProbe> {
-      MethodSettings s = base;
+      FitOptions s = base;
       s.*f = size;
       const std::optional<Probe> p = fit(s);
       if (!p) return std::nullopt;
@@ -173,7 +168,7 @@ class MethodSearch {
   }
 
   // One setting fitted, measured and recorded as a candidate (the best that fits kept).
-  std::optional<Probe> fit(const MethodSettings& s) {
+  std::optional<Probe> fit(const FitOptions& s) {
     std::optional<ModelComparison> c = fit_setting(tile_, r_, m_, s, out_);
     if (!c) return std::nullopt;
     if (c->model->synthesises()) {
@@ -241,7 +236,6 @@ std::string budget_note(std::uint64_t budget) {
 BudgetChoice choose_within_budget(const Btf& tile, const BudgetRequest& r) {
   if (r.budget == 0)
     throw Error(Error::Kind::kArgument, "fit `budget`: the budget must be at least 1 byte");
-  check_refine_bounds(r.refine_seconds, r.refine_epochs, FitObjective::kPrediction);
   const std::vector<const MethodInfo*> methods = budget_methods(r);
   BudgetChoice out;
   std::shared_ptr<Representation> smallest;  // the smallest file fitted

@@ -22,7 +22,7 @@ namespace {
 // One setting to fit: its method and settings, as the request makes them.
 struct Setting {
   const MethodInfo* method = nullptr;
-  MethodSettings settings;
+  FitOptions settings;
   std::string text;  // settings_text
 };
 
@@ -44,28 +44,31 @@ std::vector<const MethodInfo*> chosen_methods(const SweepRequest& r) {
   return out;
 }
 
-// Whether the method iterates (takes `iterations`).
-bool iterates(const MethodInfo& m) {
-  return fit_option_rule("iterations").takes(m.name);
+// Whether the method takes `field` as its own parameter.
+bool takes(const MethodInfo& m, std::string_view field) {
+  return std::any_of(m.parameters.begin(), m.parameters.end(),
+                     [field](const FitParameter& p) { return p.field == field; });
 }
 
-// Whether the method refines its fit for the prediction (takes the refinement's bounds).
-bool refines(const MethodInfo& m) {
-  return fit_option_rule("refine_epochs").takes(m.name);
+bool given(const SweepRequest& r, std::string_view field) {
+  return std::find(r.given.begin(), r.given.end(), field) != r.given.end();
 }
 
-// The refinement's bounds of a request: in range, and taken by a method swept.
+// The refinement's bounds of a request: taken by a method swept.
 void check_refinement_bounds(const SweepRequest& r, std::span<const MethodInfo* const> methods) {
-  if (r.refine_seconds == 0 && r.refine_epochs == 0) return;
-  check_refine_bounds(r.refine_seconds, r.refine_epochs, FitObjective::kPrediction);
-  if (std::none_of(methods.begin(), methods.end(), [](const MethodInfo* m) { return refines(*m); }))
+  const std::string_view field = given(r, "refine_epochs")    ? "refine_epochs"
+                                 : given(r, "refine_seconds") ? "refine_seconds"
+                                                              : "";
+  if (field.empty()) return;
+  if (std::none_of(methods.begin(), methods.end(),
+                   [field](const MethodInfo* m) { return takes(*m, field); }))
     throw Error(Error::Kind::kArgument,
                 fmt::format("sweep: {} bound the refinement of the Gaussian mixture (gm), which "
                             "is not swept; add gm to the methods or leave them out",
-                            option_name(r.refine_epochs ? "refine_epochs" : "refine_seconds")));
+                            option_name(field)));
 }
 
-// Every setting of every chosen method, with the request's encoding, threads and seed.
+// Every setting of every chosen method, with the request's options that it takes.
 std::vector<Setting> sweep_settings(const ModelFrame& frame, const SweepRequest& r) {
   const std::vector<const MethodInfo*> methods = chosen_methods(r);
   check_refinement_bounds(r, methods);
@@ -80,17 +83,12 @@ std::vector<Setting> sweep_settings(const ModelFrame& frame, const SweepRequest&
   std::vector<Setting> out;
   for (const MethodInfo* m : methods) {
     const auto own = r.ladders.find(m->name);
-    const std::vector<MethodSettings> ladder =
-        own != r.ladders.end() ? own->second : m->ladder(frame);
-    for (MethodSettings s : ladder) {
-      s.encoding = r.encoding.value_or(default_file_encoding(*m));
-      s.threads = r.threads;
-      s.seed = r.seed;
-      if (r.iterations && iterates(*m)) s.iterations = r.iterations;
-      if (refines(*m)) {
-        if (r.refine_seconds) s.refine_seconds = r.refine_seconds;
-        if (r.refine_epochs) s.refine_epochs = r.refine_epochs;
-      }
+    const std::vector<FitOptions> ladder = own != r.ladders.end() ? own->second : m->ladder(frame);
+    for (FitOptions s : ladder) {
+      s.method = m->name;
+      for (const std::string_view f : r.given)
+        if (const FitParameter* p = method_parameter(*m, f)) copy_parameter(r.options, s, *p);
+      if (!s.precision) s.precision = default_file_encoding(*m);
       s.progress = nullptr;
       s.stop = r.stop;
       out.push_back({m, s, settings_text(s)});
@@ -182,7 +180,7 @@ void create_model_folder(const std::filesystem::path& folder) {
 
 }  // namespace
 
-std::string settings_text(const MethodSettings& s) {
+std::string settings_text(const FitOptions& s) {
   std::string t;
   auto add = [&](const char* what, std::size_t v) {
     if (v) t += fmt::format("{}{} {}", t.empty() ? "" : ", ", what, v);
@@ -235,9 +233,9 @@ SweepOutcome run_sweep(const Btf& tile, const SweepRequest& request) {
     report(SweepProgress::Event::kDone, s, k, p);
   }
   out.pareto = pareto_front(out.models);
-  if (request.iterations)
+  if (given(request, "iterations"))
     for (const MethodInfo* m : chosen_methods(request))
-      if (!iterates(*m)) out.not_iterated.emplace_back(m->name);
+      if (!takes(*m, "iterations")) out.not_iterated.emplace_back(m->name);
   return out;
 }
 

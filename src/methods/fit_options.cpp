@@ -1,10 +1,10 @@
-// The settings of a fit of any method, with their defaults, and the fit they ask for.
+// The options of a fit of any method checked in one place, and the fit they ask for.
 #include "btfgmm/methods/fit_options.hpp"
 
 #include <fmt/format.h>
 
 #include <algorithm>
-#include <cassert>
+#include <atomic>
 #include <utility>
 
 #include "btfgmm/core/error.hpp"
@@ -16,80 +16,44 @@
 namespace btfgmm {
 namespace {
 
+using T = ParameterType;
 constexpr unsigned kAnyRoute =
-    FitRoute::kNew | FitRoute::kResume | FitRoute::kContinue | FitRoute::kBudget;
-constexpr unsigned kMixtureRoutes = FitRoute::kNew | FitRoute::kResume | FitRoute::kContinue;
-constexpr double kMaxSize = 100000;
+    FitRoute::kNew | FitRoute::kResume | FitRoute::kContinue | FitRoute::kBudget | FitRoute::kSweep;
 
-// Which method takes which option of the fit, and its range (fit_options.hpp). Each method
-// checks the sizes it takes against the tile itself (its message names the range the tile
-// allows), and refuses the other methods' sizes; check_fit_options refuses what cannot apply
-// with a request and the mixture's options given to another method.
-constexpr FitOptionRule kRules[] = {
-    {.field = "output",
-     .methods = "all",
-     .routes = FitRoute::kNew | FitRoute::kContinue | FitRoute::kBudget},
-    {.field = "method", .methods = "all", .routes = unsigned(FitRoute::kNew)},
-    {.field = "tile", .methods = "all", .routes = FitRoute::kNew | FitRoute::kBudget},
-    {.field = "components",
-     .methods = "gm pca-btf pca-rf lpca",
+// The rows every method takes. `output` and `overwrite` are the fit job's (no member).
+constexpr FitParameter kCommonParameters[] = {
+    {.field = "method",
+     .type = T::kText,
+     .member = &FitOptions::method,
+     .default_text = "gm",
      .routes = unsigned(FitRoute::kNew),
-     .min = 1,
-     .max = kMaxSize},
-    {.field = "clusters",
-     .methods = "lpca 3d-car 2d-car gmrf",
-     .routes = unsigned(FitRoute::kNew),
-     .min = 1,
-     .max = kMaxSize},
-    {.field = "degree",
-     .methods = "plm-rf",
-     .routes = unsigned(FitRoute::kNew),
+     .help = "the representation to fit"},
+    {.field = "tile", .type = T::kText, .routes = FitRoute::kNew | FitRoute::kBudget},
+    {.field = "seed",
+     .type = T::kCount,
+     .member = &FitOptions::seed,
      .min = 0,
-     .max = 64},
-    {.field = "seed", .methods = "all", .routes = FitRoute::kNew | FitRoute::kBudget},
-    {.field = "precision", .methods = "all", .routes = unsigned(FitRoute::kNew)},
-    {.field = "overwrite",
-     .methods = "all",
-     .routes = FitRoute::kNew | FitRoute::kContinue | FitRoute::kBudget},
-    {.field = "objective", .methods = "gm", .routes = FitRoute::kNew | FitRoute::kResume},
-    {.field = "refine_steps",
-     .methods = "gm",
-     .routes = kMixtureRoutes,
-     .min = 1,
-     .max = kMaxRefineSteps},
-    {.field = "refine_seconds",
-     .methods = "gm",
-     .routes = kMixtureRoutes | FitRoute::kBudget,
-     .min = 1,
-     .max = kMaxRefineSeconds},
-    {.field = "refine_epochs",
-     .methods = "gm",
-     .routes = kMixtureRoutes | FitRoute::kBudget,
-     .min = 1,
-     .max = kMaxRefineEpochs},
-    {.field = "epsilon", .methods = "gm", .routes = kMixtureRoutes, .min = 0, .max = 1},
-    {.field = "iterations",
-     .methods = "gm lpca plm-rf",
+     .max = 9.2e18,
+     .default_text = "1",
+     .routes = FitRoute::kNew | FitRoute::kBudget | FitRoute::kSweep,
+     .help = "the seed of the fit's random start (equal seeds give equal models)"},
+    {.field = "threads",
+     .type = T::kInteger,
+     .member = &FitOptions::threads,
+     .min = 0,
+     .max = 1024,
+     .default_text = "0",
      .routes = kAnyRoute,
-     .min = 1,
-     .max = kMaxSize},
-    {.field = "levels",
-     .methods = "3d-car 2d-car gmrf",
-     .routes = unsigned(FitRoute::kNew),
-     .min = 1,
-     .max = 16},
-    {.field = "checkpoint", .methods = "gm", .routes = kMixtureRoutes},
-    {.field = "checkpoint_every",
-     .methods = "gm",
-     .routes = kMixtureRoutes,
-     .min = 1,
-     .max = kMaxSize},
-    {.field = "resume", .methods = "gm", .routes = unsigned(FitRoute::kResume)},
-    {.field = "continue", .methods = "gm", .routes = unsigned(FitRoute::kContinue)},
-    {.field = "log", .methods = "gm", .routes = kMixtureRoutes},
-    {.field = "threads", .methods = "all", .routes = kAnyRoute, .min = 0, .max = 1024},
-    {.field = "device", .methods = "gm", .routes = kMixtureRoutes},
+     .help = "threads (0: all cores; the model does not depend on it)"},
+    {.field = "output",
+     .type = T::kText,
+     .routes = FitRoute::kNew | FitRoute::kContinue | FitRoute::kBudget},
+    {.field = "overwrite",
+     .type = T::kFlag,
+     .routes = FitRoute::kNew | FitRoute::kContinue | FitRoute::kBudget},
 };
+
+std::atomic<std::uint64_t> g_checks{0};
 
 // "`a`", "`a`, `b`", ... of the fields, and "it" or "them".
 std::string named_fields(std::span<const std::string_view> fields) {
@@ -99,17 +63,6 @@ std::string named_fields(std::span<const std::string_view> fields) {
 }
 const char* it_or_them(std::span<const std::string_view> fields) {
   return fields.size() == 1 ? "it" : "them";
-}
-
-// The fields of `given` whose row refuses them: in the table's order.
-template <typename Refused>
-std::vector<std::string_view> refused_fields(std::span<const std::string_view> given,
-                                             Refused refused) {
-  std::vector<std::string_view> out;
-  for (const FitOptionRule& r : kRules)
-    if (std::find(given.begin(), given.end(), r.field) != given.end() && refused(r))
-      out.push_back(r.field);
-  return out;
 }
 
 // Why options cannot apply with `route`.
@@ -129,23 +82,81 @@ std::string route_reason(FitRoute route, std::string_view source) {
       return fmt::format(
           "with {}: it chooses the method and size itself (each method's largest "
           "size whose file fits, stored as fit stores it)",
-          option_name(source));
+          option_name(source.empty() ? "budget" : source));
+    case FitRoute::kSweep:
+      return "to a sweep: it fits each method's ladder of sizes";
     case FitRoute::kNew:
       break;
   }
   return {};
 }
 
-// The mixture's file: compact unless asked (its own encodings; the registry's fit_encoding is
-// the other methods').
-Precision mixture_precision(const std::string& text) {
-  if (text.empty() || text == "compact" || text == "q8") return Precision::kCompact;
-  if (text == "f32") return Precision::kF32;
-  if (text == "f16") return Precision::kF16;
+// The declaration of `field` that applies to a request of `route`: `method`'s, or for a
+// budget or a sweep (every method) the first that takes the route, else the first.
+const FitParameter* applying_parameter(const MethodInfo* method, std::string_view field,
+                                       FitRoute route) {
+  if (method) return method_parameter(*method, field);
+  const FitParameter* first = nullptr;
+  for (const FitParameter& p : common_fit_parameters())
+    if (p.field == field) return &p;
+  for (const MethodInfo& m : all_methods())
+    for (const FitParameter& p : m.parameters)
+      if (p.field == field) {
+        if (p.takes_route(route)) return &p;
+        if (!first) first = &p;
+      }
+  return first;
+}
+
+// The fields given that `method` does not take (a new fit): the mixture's alone, then the
+// others', each refused with the methods that take it.
+void refuse_fields_not_taken(std::span<const std::string_view> given, const MethodInfo& method) {
+  std::vector<std::string_view> mixture_only, not_taken;
+  for (const std::string_view f : given) {
+    if (method_parameter(method, f)) continue;
+    const std::vector<std::string_view> takers = methods_taking(f);
+    (takers == std::vector<std::string_view>{kMixtureMethod} ? mixture_only : not_taken)
+        .push_back(f);
+  }
+  if (!mixture_only.empty())
+    throw Error(Error::Kind::kArgument,
+                fmt::format("{} cannot apply to {} {}: they belong to the Gaussian mixture's fit "
+                            "({} gm) only; leave {} out",
+                            named_fields(mixture_only), option_name("method"), method.name,
+                            option_name("method"), it_or_them(mixture_only)));
+  if (not_taken.empty()) return;
+  std::string takers;
+  for (const std::string_view f : not_taken)
+    takers += fmt::format("{}{} is taken by {}", takers.empty() ? "" : "; ", option_name(f),
+                          fmt::join(methods_taking(f), ", "));
   throw Error(Error::Kind::kArgument,
-              fmt::format("{} '{}': the Gaussian mixture stores compact (the default: "
-                          "quantised, zstd), f32 or f16",
-                          option_name("precision"), text));
+              fmt::format("{} cannot apply to {} {}, which does not take {} ({}); leave {} out",
+                          named_fields(not_taken), option_name("method"), method.name,
+                          it_or_them(not_taken), takers, it_or_them(not_taken)));
+}
+
+// The fields given that cannot apply with `route`.
+void refuse_fields_off_route(std::span<const std::string_view> given, const MethodInfo* method,
+                             FitRoute route, std::string_view source) {
+  std::vector<std::string_view> off_route;
+  for (const std::string_view f : given) {
+    const FitParameter* p = applying_parameter(method, f, route);
+    if (!p || !p->takes_route(route)) off_route.push_back(f);
+  }
+  if (!off_route.empty())
+    throw Error(Error::Kind::kArgument,
+                fmt::format("{} cannot apply {}; leave {} out", named_fields(off_route),
+                            route_reason(route, source), it_or_them(off_route)));
+}
+
+constexpr std::string_view kRefinementFields[] = {"refine_steps", "refine_seconds",
+                                                  "refine_epochs"};
+
+// The mixture's file: compact unless asked (its own encodings; q8 is its compact).
+Precision mixture_precision(const std::optional<FactorEncoding>& e) {
+  if (e == FactorEncoding::kF32) return Precision::kF32;
+  if (e == FactorEncoding::kF16) return Precision::kF16;
+  return Precision::kCompact;
 }
 
 // The mixture, as run_fit fits it but for the file.
@@ -168,192 +179,135 @@ std::unique_ptr<Representation> fit_mixture(const FitOptions& o, const std::stri
   return std::make_unique<GaussianMixture>(std::move(fit.model));
 }
 
-// A new fit of another method than the mixture refuses the options its method does not take,
-// naming the methods that take each (`levels` has its own message, in method_settings; the
-// mixture's refusals of `clusters` and `degree` are mixture_fit_request's).
-void refuse_options_not_taken(std::span<const std::string_view> given, std::string_view method,
-                              FitRoute route) {
-  if (route != FitRoute::kNew || method == kMixtureMethod) return;
-  const std::vector<std::string_view> not_taken =
-      refused_fields(given, [method](const FitOptionRule& r) {
-        return r.methods != kMixtureMethod && r.field != "levels" && !r.takes(method);
-      });
-  if (not_taken.empty()) return;
-  std::string takers;
-  for (const std::string_view f : not_taken)
-    takers += fmt::format("{}{} is taken by {}", takers.empty() ? "" : "; ", option_name(f),
-                          fit_option_rule(f).methods);
-  throw Error(Error::Kind::kArgument,
-              fmt::format("{} cannot apply to {} {}, which does not take {} ({}); leave {} out",
-                          named_fields(not_taken), option_name("method"), method,
-                          it_or_them(not_taken), takers, it_or_them(not_taken)));
-}
-
 }  // namespace
 
-bool FitOptionRule::takes(std::string_view method) const {
-  if (methods == "all") return true;
-  for (std::size_t at = 0; at < methods.size();) {
-    const std::size_t end = std::min(methods.find(' ', at), methods.size());
-    if (methods.substr(at, end - at) == method) return true;
-    at = end + 1;
-  }
-  return false;
+std::span<const FitParameter> common_fit_parameters() {
+  return kCommonParameters;
 }
 
-std::span<const FitOptionRule> fit_option_rules() {
-  return kRules;
+const FitParameter* method_parameter(const MethodInfo& method, std::string_view field) {
+  for (const FitParameter& p : method.parameters)
+    if (p.field == field) return &p;
+  for (const FitParameter& p : kCommonParameters)
+    if (p.field == field) return &p;
+  return nullptr;
 }
 
-const FitOptionRule& fit_option_rule(std::string_view field) {
-  for (const FitOptionRule& r : kRules)
-    if (r.field == field) return r;
-  assert(false && "no such option of the fit");
-  return kRules[0];
-}
-
-std::vector<std::string_view> given_fields(const FitOptions& o) {
-  const std::pair<std::string_view, bool> set[] = {
-      {"method", o.method != kMixtureMethod},
-      {"components", o.components != 0},
-      {"clusters", o.clusters != 0},
-      {"degree", o.degree != 0},
-      {"iterations", o.iterations != 0},
-      {"levels", o.levels != 0},
-      {"epsilon", o.epsilon.has_value()},
-      {"precision", !o.precision.empty()},
-      {"objective", !o.objective.empty()},
-      {"refine_steps", o.refine_steps != 0},
-      {"refine_seconds", o.refine_seconds != 0},
-      {"refine_epochs", o.refine_epochs != 0},
-      {"device", !o.device.empty()},
+std::vector<const FitParameter*> fit_parameters() {
+  std::vector<const FitParameter*> out;
+  auto add = [&out](const FitParameter& p) {
+    if (std::none_of(out.begin(), out.end(),
+                     [&p](const FitParameter* q) { return q->field == p.field; }))
+      out.push_back(&p);
   };
-  std::vector<std::string_view> out;
-  for (const auto& [field, given] : set)
-    if (given) out.push_back(field);
+  for (const FitParameter& p : kCommonParameters) add(p);
+  for (const MethodInfo& m : all_methods())
+    for (const FitParameter& p : m.parameters) add(p);
   return out;
 }
 
-void check_fit_options(std::span<const std::string_view> given, std::string_view method,
-                       FitRoute route, std::string_view source) {
-  const std::vector<std::string_view> mixture_only =
-      route == FitRoute::kBudget ? std::vector<std::string_view>()
-                                 : refused_fields(given, [method](const FitOptionRule& r) {
-                                     return r.methods == kMixtureMethod && !r.takes(method);
-                                   });
-  if (!mixture_only.empty())
-    throw Error(Error::Kind::kArgument,
-                fmt::format("{} cannot apply to {} {}: they belong to the Gaussian mixture's fit "
-                            "({} gm) only; leave {} out",
-                            named_fields(mixture_only), option_name("method"), method,
-                            option_name("method"), it_or_them(mixture_only)));
-  refuse_options_not_taken(given, method, route);
-  const std::vector<std::string_view> off_route = refused_fields(
-      given, [route](const FitOptionRule& r) { return (r.routes & unsigned(route)) == 0; });
-  if (!off_route.empty())
-    throw Error(Error::Kind::kArgument,
-                fmt::format("{} cannot apply {}; leave {} out", named_fields(off_route),
-                            route_reason(route, source), it_or_them(off_route)));
+const FitParameter* find_fit_parameter(std::string_view field) {
+  for (const FitParameter* p : fit_parameters())
+    if (p->field == field) return p;
+  return nullptr;
 }
 
-void set_refine_steps(FitConfig& config, int steps) {
-  const FitOptionRule& rule = fit_option_rule("refine_steps");
-  if (steps < 0 || steps > rule.max)
-    throw Error(Error::Kind::kArgument,
-                fmt::format("{} {}: give {} to {} Adam steps, or leave it out for as many as the "
-                            "fit affords",
-                            option_name(rule.field), steps, rule.min, rule.max));
-  if (steps > 0 && config.objective != FitObjective::kPrediction)
-    throw Error(Error::Kind::kArgument,
-                fmt::format("{} applies to the objective prediction only (the paper's EM, {} "
-                            "likelihood, refines nothing); leave one of them out",
-                            option_name(rule.field), option_name("objective")));
-  config.refinement_steps = steps;
+std::vector<std::string_view> methods_taking(std::string_view field) {
+  std::vector<std::string_view> out;
+  for (const MethodInfo& m : all_methods())
+    for (const FitParameter& p : m.parameters)
+      if (p.field == field) out.push_back(m.name);
+  return out;
 }
 
-void check_refine_bounds(double seconds, int epochs, FitObjective objective) {
-  const std::pair<std::string_view, bool> given[] = {{"refine_seconds", seconds != 0},
-                                                     {"refine_epochs", epochs != 0}};
-  for (const auto& [field, set] : given) {
-    const FitOptionRule& rule = fit_option_rule(field);
-    const double value = field == "refine_epochs" ? double(epochs) : seconds;
-    if (set && !(value >= rule.min && value <= rule.max))
-      throw Error(
-          Error::Kind::kArgument,
-          fmt::format("{} {:g}: give {:g} to {:g}", option_name(field), value, rule.min, rule.max));
-    if (set && objective != FitObjective::kPrediction)
+std::string parameter_help(std::string_view field) {
+  auto sentence = [](const FitParameter& p) {
+    return p.default_text.empty() ? std::string(p.help)
+                                  : fmt::format("{} (default {})", p.help, p.default_text);
+  };
+  for (const FitParameter& p : kCommonParameters)
+    if (p.field == field) return sentence(p);
+  std::vector<std::pair<std::string, std::vector<std::string_view>>> groups;  // help, methods
+  for (const MethodInfo& m : all_methods())
+    if (const FitParameter* p = method_parameter(m, field)) {
+      const std::string h = sentence(*p);
+      auto it =
+          std::find_if(groups.begin(), groups.end(), [&h](const auto& g) { return g.first == h; });
+      if (it == groups.end())
+        groups.push_back({h, {m.name}});
+      else
+        it->second.push_back(m.name);
+    }
+  std::string out;
+  for (const auto& [h, methods] : groups)
+    out += fmt::format("{}{}: {}", out.empty() ? "" : "; ", fmt::join(methods, ", "), h);
+  return out;
+}
+
+std::vector<std::string_view> given_fields(const FitOptions& o) {
+  std::vector<std::string_view> out;
+  for (const FitParameter* p : fit_parameters())
+    if (parameter_value(o, *p)) out.push_back(p->field);
+  return out;
+}
+
+void check_fit_options(const FitOptions& o, std::span<const std::string_view> given, FitRoute route,
+                       std::string_view source) {
+  ++g_checks;
+  const bool every_method = route == FitRoute::kBudget || route == FitRoute::kSweep;
+  const MethodInfo* method = every_method ? nullptr : &find_method(o.method);
+  if (route == FitRoute::kNew) refuse_fields_not_taken(given, *method);
+  refuse_fields_off_route(given, method, route, source);
+  for (const std::string_view f : given) {
+    const FitParameter* p = applying_parameter(method, f, route);
+    if (const std::optional<ParameterValue> v = parameter_value(o, *p))
+      check_parameter_value(*p, *v);
+  }
+  if (o.objective != "likelihood") return;
+  for (const std::string_view f : kRefinementFields)
+    if (std::find(given.begin(), given.end(), f) != given.end())
+      throw Error(Error::Kind::kArgument,
+                  fmt::format("{} applies to the objective prediction only (the paper's EM, {} "
+                              "likelihood, refines nothing); leave one of them out",
+                              option_name(f), option_name("objective")));
+}
+
+std::uint64_t fit_option_checks() {
+  return g_checks.load();
+}
+
+DeviceChoice fit_device(const FitOptions& o) {
+  return parse_device_choice(o.device.empty() ? "auto" : o.device).value_or(DeviceChoice::kAuto);
+}
+
+void set_refinement_options(FitConfig& config, const FitOptions& o) {
+  const std::pair<std::string_view, bool> given[] = {{"refine_steps", o.refine_steps != 0},
+                                                     {"refine_seconds", o.refine_seconds != 0},
+                                                     {"refine_epochs", o.refine_epochs != 0}};
+  for (const auto& [field, set] : given)
+    if (set && config.objective != FitObjective::kPrediction)
       throw Error(Error::Kind::kArgument,
                   fmt::format("{} applies to the objective prediction only (the paper's EM, {} "
                               "likelihood, refines nothing); leave one of them out",
                               option_name(field), option_name("objective")));
-  }
-}
-
-void set_refine_bounds(FitConfig& config, double seconds, int epochs) {
-  check_refine_bounds(seconds, epochs, config.objective);
-  if (seconds > 0) config.refinement_seconds = seconds;
-  if (epochs > 0) config.refinement_epochs = epochs;
+  if (o.refine_steps > 0) config.refinement_steps = o.refine_steps;
+  if (o.refine_seconds > 0) config.refinement_seconds = o.refine_seconds;
+  if (o.refine_epochs > 0) config.refinement_epochs = o.refine_epochs;
 }
 
 FitRequest mixture_fit_request(const FitOptions& o, const std::string& input,
                                const std::string& output) {
-  if (o.clusters != 0 || o.degree != 0)
-    throw Error(Error::Kind::kArgument,
-                fmt::format("{} applies to {} {} only, not to the Gaussian mixture; leave it out",
-                            option_name(o.clusters ? "clusters" : "degree"), option_name("method"),
-                            o.clusters ? "lpca" : "plm-rf"));
-  if (o.levels != 0)
-    throw Error(Error::Kind::kArgument,
-                fmt::format("{} applies to the pyramid of {} 3d-car, 2d-car or gmrf only, not "
-                            "to the Gaussian mixture; leave it out",
-                            option_name("levels"), option_name("method")));
-  const std::vector<std::string_view> given = given_fields(o);
-  check_fit_options(given, kMixtureMethod, FitRoute::kNew);
   FitRequest r;
   r.input = input;
   r.output = output;
   r.config = mixture_config(o.components, o.iterations, o.seed, o.threads);
   r.config.em.epsilon = o.epsilon.value_or(0.0);
-  r.config.objective =
-      parse_objective(o.objective.empty() ? "prediction" : o.objective, option_name("objective"));
-  set_refine_steps(r.config, o.refine_steps);
-  set_refine_bounds(r.config, o.refine_seconds, o.refine_epochs);
+  if (!o.objective.empty())  // else mixture_config's, the prediction
+    r.config.objective = parse_objective(o.objective, option_name("objective"));
+  set_refinement_options(r.config, o);
   r.precision = mixture_precision(o.precision);
   r.config.device = fit_device(o);
   return r;
-}
-
-DeviceChoice fit_device(const FitOptions& o) {
-  if (o.device.empty()) return DeviceChoice::kAuto;
-  if (const auto choice = parse_device_choice(o.device)) return *choice;
-  throw Error(Error::Kind::kArgument,
-              fmt::format("{} '{}' is not a device: give auto (a GPU where one exists, else the "
-                          "CPU), cpu or gpu",
-                          option_name("device"), o.device));
-}
-
-MethodSettings method_settings(const FitOptions& o, const MethodInfo& method) {
-  const std::vector<std::string_view> given = given_fields(o);
-  check_fit_options(given, method.name, FitRoute::kNew);
-  if (o.levels != 0 && !fit_option_rule("levels").takes(method.name))
-    throw Error(Error::Kind::kArgument,
-                fmt::format("{} {} cannot apply to {} {}: it has no pyramid ({} applies to "
-                            "3d-car, 2d-car and gmrf); leave it out",
-                            option_name("levels"), o.levels, option_name("method"), method.name,
-                            option_name("levels")));
-  MethodSettings s;
-  s.components = o.components;
-  s.levels = o.levels;
-  s.clusters = o.clusters;
-  s.degree = o.degree;
-  s.iterations = o.iterations;
-  s.seed = o.seed;
-  s.threads = o.threads;
-  // The method's default file (default_file_encoding; compact for the factor methods, at most
-  // 0.06 dB below q8 on generated tiles, docs/METHODS.md), the one sweep and the budget measure.
-  s.encoding = o.precision.empty() ? default_file_encoding(method)
-                                   : parse_factor_encoding(o.precision, option_name("precision"));
-  return s;
 }
 
 std::unique_ptr<Representation> fit_representation(const FitOptions& o, const std::string& input,
@@ -361,7 +315,7 @@ std::unique_ptr<Representation> fit_representation(const FitOptions& o, const st
                                                    const Tile& tile, const FitProgress& progress) {
   if (o.method == kMixtureMethod) return fit_mixture(o, input, std::move(source), tile, progress);
   const MethodInfo& method = find_method(o.method);
-  MethodSettings s = method_settings(o, method);
+  FitOptions s = o;
   s.progress = progress.progress;
   s.stop = progress.stop;
   if (!source) source = std::make_shared<const BtfSource>(BtfSource::open(input));

@@ -95,29 +95,9 @@ FactorEncoding GaussianMixture::encoding() const {
                                                    : FactorEncoding::kF32;
 }
 
-namespace {
-
-// A ladder's or a caller's settings as the fit's options, so that the registry's fit takes the
-// one route to a mixture's fit (mixture_fit_request: the defaults, the checks, the file).
-FitOptions mixture_options(const MethodSettings& s) {
-  FitOptions o;
-  o.components = s.components;
-  o.clusters = s.clusters;
-  o.degree = s.degree;
-  o.iterations = s.iterations;
-  o.levels = s.levels;
-  o.refine_seconds = s.refine_seconds;
-  o.refine_epochs = s.refine_epochs;
-  o.seed = s.seed;
-  o.threads = s.threads;
-  o.precision = to_string(s.encoding);
-  return o;
-}
-
-}  // namespace
-
-std::unique_ptr<Representation> fit_gaussian_mixture(const Btf& tile, const MethodSettings& s) {
-  const FitRequest request = mixture_fit_request(mixture_options(s), "", "");
+std::unique_ptr<Representation> fit_gaussian_mixture(const Btf& tile, const FitOptions& s) {
+  // The one route from the options to the mixture's fit (its defaults and its file).
+  const FitRequest request = mixture_fit_request(s, "", "");
   FitConfig config = request.config;
   config.em.stop = s.stop;
   EmCallback progress;

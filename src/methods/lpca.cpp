@@ -32,7 +32,7 @@ std::string tile_text(const ModelFrame& f) {
                      f.lights.size() * f.views.size() * 3);
 }
 
-std::size_t clusters_setting(const MethodSettings& s, const ModelFrame& f) {
+std::size_t clusters_setting(const FitOptions& s, const ModelFrame& f) {
   if (s.clusters == 0) return std::min<std::size_t>(8, max_clusters(f.pixels()));
   if (s.clusters > max_clusters(f.pixels()))
     throw Error(Error::Kind::kArgument,
@@ -41,7 +41,7 @@ std::size_t clusters_setting(const MethodSettings& s, const ModelFrame& f) {
   return s.clusters;
 }
 
-int rounds_setting(const MethodSettings& s) {
+int rounds_setting(const FitOptions& s) {
   if (s.iterations < 0)
     throw Error(Error::Kind::kArgument,
                 fmt::format("`iterations` {}: lpca takes 1 or more re-assignment rounds (0: the "
@@ -217,7 +217,7 @@ std::vector<std::pair<std::string, std::string>> Lpca::details() const {
   };
 }
 
-std::unique_ptr<Representation> fit_lpca(const Btf& tile, const MethodSettings& s) {
+std::unique_ptr<Representation> fit_lpca(const Btf& tile, const FitOptions& s) {
   const ModelFrame frame = ModelFrame::of(tile);
   const std::size_t texels = frame.pixels(), dims = tile.image_count() * 3;
   const std::size_t k = clusters_setting(s, frame);
@@ -228,9 +228,9 @@ std::unique_ptr<Representation> fit_lpca(const Btf& tile, const MethodSettings& 
   const std::vector<float> x = detail::texel_brdfs(tile);
   const detail::LocalPca l = detail::fit_local_pca(x, texels, dims, k, c, max_rounds, s);
   detail::check_stop(s, kMethod);
-  StoredFactors f = store(l, x, s.encoding);
+  StoredFactors f = store(l, x, stored_encoding(s));
   detail::report(s, 1.0, "done");
-  return std::make_unique<Lpca>(frame, k, c, s.encoding, l.cluster, std::move(f.means),
+  return std::make_unique<Lpca>(frame, k, c, stored_encoding(s), l.cluster, std::move(f.means),
                                 std::move(f.basis), std::move(f.weights),
                                 LpcaRounds{std::uint32_t(l.rounds), l.converged});
 }
@@ -271,7 +271,7 @@ std::unique_ptr<Representation> read_lpca(std::span<const std::uint8_t> payload,
                                 std::move(basis), std::move(weights), rounds);
 }
 
-std::vector<MethodSettings> lpca_ladder(const ModelFrame& frame) {
+std::vector<FitOptions> lpca_ladder(const ModelFrame& frame) {
   const std::size_t texels = frame.pixels(), dims = frame.lights.size() * frame.views.size() * 3;
   if (texels < 2) return {};
   std::vector<std::pair<std::size_t, std::size_t>> chain;  // (k, c) by growing size
@@ -282,9 +282,9 @@ std::vector<MethodSettings> lpca_ladder(const ModelFrame& frame) {
   std::vector<double> ratios;
   for (const auto& [kk, c] : chain)
     ratios.push_back(frame.data_values() / double(lpca_parameter_count(frame, kk, c)));
-  std::vector<MethodSettings> out;
+  std::vector<FitOptions> out;
   for (std::size_t i : detail::ladder_choice(ratios)) {
-    MethodSettings s;
+    FitOptions s;
     s.clusters = chain[i].first;
     s.components = chain[i].second;
     out.push_back(s);

@@ -159,7 +159,7 @@ std::vector<std::uint32_t> seed_clusters(std::span<const float> x, std::size_t t
 }
 
 LocalPca fit_local_pca(std::span<const float> x, std::size_t texels, std::size_t dims,
-                       std::size_t k, std::size_t c, int max_rounds, const MethodSettings& s) {
+                       std::size_t k, std::size_t c, int max_rounds, const FitOptions& s) {
   LocalPca l;
   l.texels = texels;
   l.dims = dims;

@@ -44,6 +44,6 @@ std::vector<std::uint32_t> seed_clusters(std::span<const float> x, std::size_t t
 // The local PCA of the rows of `x` with k clusters (k <= texels) of c components, at most
 // `max_rounds` rounds. s.stop and s.progress are honoured (stop: Error(kArgument)).
 LocalPca fit_local_pca(std::span<const float> x, std::size_t texels, std::size_t dims,
-                       std::size_t k, std::size_t c, int max_rounds, const MethodSettings& s);
+                       std::size_t k, std::size_t c, int max_rounds, const FitOptions& s);
 
 }  // namespace btfgmm::detail

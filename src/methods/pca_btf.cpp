@@ -111,7 +111,7 @@ std::vector<std::pair<std::string, std::string>> PcaBtf::details() const {
   };
 }
 
-std::unique_ptr<Representation> fit_pca_btf(const Btf& tile, const MethodSettings& s) {
+std::unique_ptr<Representation> fit_pca_btf(const Btf& tile, const FitOptions& s) {
   detail::refuse_clusters(s, kMethod);
   const std::size_t n = tile.image_count(), d = tile.image_floats();
   const std::size_t c = detail::components_setting(s, kMethod, 61, max_components(n, d),
@@ -127,13 +127,13 @@ std::unique_ptr<Representation> fit_pca_btf(const Btf& tile, const MethodSetting
   // The stored mean and eigen-images first, then the weights fitted to them (least squares),
   // so that the stored weights make up for what the encoding rounded.
   std::vector<float> mean = detail::to_floats(p.mean), eigen = detail::to_floats(p.directions);
-  detail::quantise_factors(mean, d, s.encoding);
-  detail::quantise_factors(eigen, d, s.encoding);
+  detail::quantise_factors(mean, d, stored_encoding(s));
+  detail::quantise_factors(eigen, d, stored_encoding(s));
   std::vector<float> weights = detail::transposed(
       detail::to_floats(detail::fit_coordinates(tile.data(), n, d, mean, eigen, c)), n, c);
-  detail::quantise_factors(weights, n, s.encoding);
+  detail::quantise_factors(weights, n, stored_encoding(s));
   detail::report(s, 1.0, "done");
-  return std::make_unique<PcaBtf>(ModelFrame::of(tile), c, s.encoding, std::move(mean),
+  return std::make_unique<PcaBtf>(ModelFrame::of(tile), c, stored_encoding(s), std::move(mean),
                                   std::move(eigen), std::move(weights));
 }
 
@@ -158,15 +158,15 @@ std::unique_ptr<Representation> read_pca_btf(std::span<const std::uint8_t> paylo
                                   std::move(weights));
 }
 
-std::vector<MethodSettings> pca_btf_ladder(const ModelFrame& frame) {
+std::vector<FitOptions> pca_btf_ladder(const ModelFrame& frame) {
   const std::size_t images = frame.lights.size() * frame.views.size();
   if (images < 2) return {};
   std::vector<double> ratios;
   for (std::size_t c = 1; c <= max_components(images, frame.pixels() * 3); ++c)
     ratios.push_back(frame.data_values() / double(pca_btf_parameter_count(frame, c)));
-  std::vector<MethodSettings> out;
+  std::vector<FitOptions> out;
   for (std::size_t i : detail::ladder_choice(ratios)) {
-    MethodSettings s;
+    FitOptions s;
     s.components = i + 1;
     out.push_back(s);
   }

@@ -13,7 +13,7 @@
 
 namespace btfgmm::detail {
 
-std::size_t components_setting(const MethodSettings& s, std::string_view method,
+std::size_t components_setting(const FitOptions& s, std::string_view method,
                                std::size_t fallback, std::size_t max, const std::string& what) {
   if (max < 1)
     throw Error(
@@ -26,7 +26,7 @@ std::size_t components_setting(const MethodSettings& s, std::string_view method,
   return s.components;
 }
 
-void refuse_clusters(const MethodSettings& s, std::string_view method) {
+void refuse_clusters(const FitOptions& s, std::string_view method) {
   if (s.clusters != 0)
     throw Error(Error::Kind::kArgument,
                 fmt::format("`clusters` {}: {} has no clusters (`clusters` applies to lpca); "
@@ -34,12 +34,12 @@ void refuse_clusters(const MethodSettings& s, std::string_view method) {
                             s.clusters, method));
 }
 
-void check_stop(const MethodSettings& s, std::string_view method) {
+void check_stop(const FitOptions& s, std::string_view method) {
   if (s.stop && s.stop->load())
     throw Error(Error::Kind::kArgument, fmt::format("the {} fit was stopped", method));
 }
 
-void report(const MethodSettings& s, double fraction, std::string_view stage) {
+void report(const FitOptions& s, double fraction, std::string_view stage) {
   if (s.progress) s.progress(std::clamp(fraction, 0.0, 1.0), stage);
 }
 

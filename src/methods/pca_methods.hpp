@@ -19,13 +19,13 @@ namespace btfgmm::detail {
 
 // s.components, or `fallback` (clamped to `max`) when 0; Error(kArgument) outside 1..max:
 // "`components` 900: pca-btf takes 1..255 for <what>" (what: "this tile of 256 images").
-std::size_t components_setting(const MethodSettings& s, std::string_view method,
+std::size_t components_setting(const FitOptions& s, std::string_view method,
                                std::size_t fallback, std::size_t max, const std::string& what);
 // Error(kArgument) for --clusters given to a method that has none.
-void refuse_clusters(const MethodSettings& s, std::string_view method);
+void refuse_clusters(const FitOptions& s, std::string_view method);
 // Error(kArgument) once s.stop is set; reports progress where s.progress is set.
-void check_stop(const MethodSettings& s, std::string_view method);
-void report(const MethodSettings& s, double fraction, std::string_view stage);
+void check_stop(const FitOptions& s, std::string_view method);
+void report(const FitOptions& s, double fraction, std::string_view stage);
 
 // OpenMP's thread count set to `threads` (when > 0) for the scope's lifetime.
 class ThreadScope {

@@ -27,7 +27,7 @@ struct ViewFactors {
 
 // The PCA of view v's images, stored as `e`; the weights are fitted to the stored mean and
 // eigen-images, so that they make up for what the encoding rounded.
-ViewFactors fit_view(const Btf& tile, std::size_t v, std::size_t c, const MethodSettings& s) {
+ViewFactors fit_view(const Btf& tile, std::size_t v, std::size_t c, const FitOptions& s) {
   const std::size_t ni = tile.lights().size(), d = tile.image_floats();
   std::vector<float> images(ni * d);
   for (std::size_t l = 0; l < ni; ++l)
@@ -36,11 +36,11 @@ ViewFactors fit_view(const Btf& tile, std::size_t v, std::size_t c, const Method
   ps.seed = s.seed + v;
   const detail::Pca p = detail::principal_components(images, ni, d, c, ps);
   ViewFactors f{detail::to_floats(p.mean), detail::to_floats(p.directions), {}};
-  detail::quantise_factors(f.mean, d, s.encoding);
-  detail::quantise_factors(f.eigen, d, s.encoding);
+  detail::quantise_factors(f.mean, d, stored_encoding(s));
+  detail::quantise_factors(f.eigen, d, stored_encoding(s));
   f.weights = detail::transposed(
       detail::to_floats(detail::fit_coordinates(images, ni, d, f.mean, f.eigen, c)), ni, c);
-  detail::quantise_factors(f.weights, ni, s.encoding);
+  detail::quantise_factors(f.weights, ni, stored_encoding(s));
   return f;
 }
 
@@ -133,7 +133,7 @@ std::vector<std::pair<std::string, std::string>> PcaRf::details() const {
   };
 }
 
-std::unique_ptr<Representation> fit_pca_rf(const Btf& tile, const MethodSettings& s) {
+std::unique_ptr<Representation> fit_pca_rf(const Btf& tile, const FitOptions& s) {
   detail::refuse_clusters(s, kMethod);
   const std::size_t ni = tile.lights().size(), nv = tile.views().size(), d = tile.image_floats();
   const std::size_t c = detail::components_setting(
@@ -152,7 +152,7 @@ std::unique_ptr<Representation> fit_pca_rf(const Btf& tile, const MethodSettings
     weights.insert(weights.end(), f.weights.begin(), f.weights.end());
   }
   detail::report(s, 1.0, "done");
-  return std::make_unique<PcaRf>(ModelFrame::of(tile), c, s.encoding, std::move(means),
+  return std::make_unique<PcaRf>(ModelFrame::of(tile), c, stored_encoding(s), std::move(means),
                                  std::move(eigen), std::move(weights));
 }
 
@@ -176,15 +176,15 @@ std::unique_ptr<Representation> read_pca_rf(std::span<const std::uint8_t> payloa
                                  std::move(weights));
 }
 
-std::vector<MethodSettings> pca_rf_ladder(const ModelFrame& frame) {
+std::vector<FitOptions> pca_rf_ladder(const ModelFrame& frame) {
   const std::size_t ni = frame.lights.size();
   if (ni < 2) return {};
   std::vector<double> ratios;
   for (std::size_t c = 1; c <= max_components(ni, frame.pixels() * 3); ++c)
     ratios.push_back(frame.data_values() / double(pca_rf_parameter_count(frame, c)));
-  std::vector<MethodSettings> out;
+  std::vector<FitOptions> out;
   for (std::size_t i : detail::ladder_choice(ratios)) {
-    MethodSettings s;
+    FitOptions s;
     s.components = i + 1;
     out.push_back(s);
   }

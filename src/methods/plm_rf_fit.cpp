@@ -25,7 +25,7 @@ struct PlmOptions {
   int threads = 1;
 };
 
-PlmOptions check_settings(const Btf& tile, const MethodSettings& s) {
+PlmOptions check_settings(const Btf& tile, const FitOptions& s) {
   const auto not_here = [](std::string_view option, std::size_t value) {
     throw Error(Error::Kind::kArgument,
                 fmt::format("{} {}: plm-rf's size is set by `degree` (the degree l of its "
@@ -137,13 +137,13 @@ void fit_polynomials(const Btf& tile, const float* lobes, std::size_t view, floa
   }
 }
 
-void check_stop(const MethodSettings& s) {
+void check_stop(const FitOptions& s) {
   if (s.stop && s.stop->load()) throw Error(Error::Kind::kArgument, "plm-rf's fit was stopped");
 }
 
 }  // namespace
 
-std::unique_ptr<Representation> fit_plm_rf(const Btf& tile, const MethodSettings& s) {
+std::unique_ptr<Representation> fit_plm_rf(const Btf& tile, const FitOptions& s) {
   const PlmOptions o = check_settings(tile, s);
   const std::size_t n = tile.image_floats(), ni = tile.lights().size(), nv = tile.views().size();
   const std::size_t lobe_block = PlmRf::kLobeParameters * n, poly_block = (o.degree + 1) * ni * 3;
@@ -154,7 +154,7 @@ std::unique_ptr<Representation> fit_plm_rf(const Btf& tile, const MethodSettings
     if (s.progress) s.progress(0.9 * double(v + 1) / double(nv), "Lafortune lobes (LM)");
   }
   // Stored first, so that the polynomials map the very lobes decoding evaluates.
-  detail::quantise_factors(lobes, n, s.encoding);
+  detail::quantise_factors(lobes, n, stored_encoding(s));
   const float scale = data_scale(tile);
   for (std::size_t v = 0; v < nv; ++v) {
     check_stop(s);
@@ -162,9 +162,9 @@ std::unique_ptr<Representation> fit_plm_rf(const Btf& tile, const MethodSettings
                     polynomials.data() + v * poly_block);
     if (s.progress) s.progress(0.9 + 0.1 * double(v + 1) / double(nv), "per-image polynomials");
   }
-  detail::quantise_factors(polynomials, ni * 3, s.encoding);
+  detail::quantise_factors(polynomials, ni * 3, stored_encoding(s));
   return std::make_unique<PlmRf>(ModelFrame::of(tile), o.degree, scale, std::move(lobes),
-                                 std::move(polynomials), s.encoding, o.iterations);
+                                 std::move(polynomials), stored_encoding(s), o.iterations);
 }
 
 }  // namespace btfgmm

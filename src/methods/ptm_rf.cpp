@@ -114,7 +114,7 @@ std::vector<std::pair<std::string, std::string>> PtmRf::details() const {
 
 namespace {
 
-void check_settings(const MethodSettings& s) {
+void check_settings(const FitOptions& s) {
   const auto fixed = [](std::string_view option, auto value) {
     throw Error(Error::Kind::kArgument,
                 fmt::format("{} {}: ptm-rf has a fixed size (6 coefficients per texel, view and "
@@ -181,7 +181,7 @@ void fit_view(const Btf& tile, const Eigen::MatrixXd& pinv, std::size_t view, in
 
 }  // namespace
 
-std::unique_ptr<Representation> fit_ptm_rf(const Btf& tile, const MethodSettings& s) {
+std::unique_ptr<Representation> fit_ptm_rf(const Btf& tile, const FitOptions& s) {
   check_settings(s);
   const Eigen::MatrixXd pinv = pseudo_inverse(tile.lights());
   const std::size_t nv = tile.views().size(), n = tile.image_floats();
@@ -192,8 +192,8 @@ std::unique_ptr<Representation> fit_ptm_rf(const Btf& tile, const MethodSettings
     fit_view(tile, pinv, v, threads, coefficients.data() + v * PtmRf::kCoefficients * n);
     if (s.progress) s.progress(double(v + 1) / double(nv), "least squares per view");
   }
-  detail::quantise_factors(coefficients, n, s.encoding);
-  return std::make_unique<PtmRf>(ModelFrame::of(tile), std::move(coefficients), s.encoding);
+  detail::quantise_factors(coefficients, n, stored_encoding(s));
+  return std::make_unique<PtmRf>(ModelFrame::of(tile), std::move(coefficients), stored_encoding(s));
 }
 
 std::unique_ptr<Representation> read_ptm_rf(std::span<const std::uint8_t> payload,

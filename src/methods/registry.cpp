@@ -11,6 +11,7 @@
 #include "btfgmm/io/file_kind.hpp"
 #include "btfgmm/io/files.hpp"
 #include "btfgmm/io/image.hpp"
+#include "btfgmm/methods/fit_options.hpp"
 #include "btfgmm/methods/gaussian_mixture.hpp"
 #include "btfgmm/methods/lpca.hpp"
 #include "btfgmm/methods/pca_btf.hpp"
@@ -19,6 +20,7 @@
 #include "btfgmm/methods/ptm_rf.hpp"
 #include "btfgmm/methods/texture_models.hpp"
 #include "btfgmm/model/model_file.hpp"
+#include "btfgmm/model/refine.hpp"
 
 namespace btfgmm {
 namespace {
@@ -31,10 +33,10 @@ std::unique_ptr<Representation> read_gaussian_mixture(std::span<const std::uint8
 
 // M from 10 to 600 (the default fit's), at most twice apart above 30: the mixture's own
 // ladder (its ratio, as the paper counts it, is set mostly by the mean BRDF on small tiles).
-std::vector<MethodSettings> mixture_ladder(const ModelFrame&) {
-  std::vector<MethodSettings> out;
+std::vector<FitOptions> mixture_ladder(const ModelFrame&) {
+  std::vector<FitOptions> out;
   for (std::size_t m : {10, 30, 100, 200, 300, 450, 600}) {
-    MethodSettings s;
+    FitOptions s;
     s.components = m;
     out.push_back(s);
   }
@@ -42,20 +44,239 @@ std::vector<MethodSettings> mixture_ladder(const ModelFrame&) {
 }
 
 // PTM RF has one size.
-std::vector<MethodSettings> ptm_rf_ladder(const ModelFrame&) {
-  return {MethodSettings{}};
+std::vector<FitOptions> ptm_rf_ladder(const ModelFrame&) {
+  return {FitOptions{}};
 }
 
 // PLM RF's size hardly moves with the polynomial's degree (the lobes dominate): l = 1, 2, 4.
-std::vector<MethodSettings> plm_rf_ladder(const ModelFrame&) {
-  std::vector<MethodSettings> out;
+std::vector<FitOptions> plm_rf_ladder(const ModelFrame&) {
+  std::vector<FitOptions> out;
   for (std::size_t l : {1, 2, 4}) {
-    MethodSettings s;
+    FitOptions s;
     s.degree = l;
     out.push_back(s);
   }
   return out;
 }
+
+// ---- Each method's parameters (methods/parameters.hpp): the fields it takes -------------
+
+using T = ParameterType;
+constexpr unsigned kMixtureRoutes = FitRoute::kNew | FitRoute::kResume | FitRoute::kContinue;
+constexpr unsigned kAnyRoute = kMixtureRoutes | FitRoute::kBudget | FitRoute::kSweep;
+constexpr unsigned kNewFit = unsigned(FitRoute::kNew);
+constexpr double kMaxSize = 100000;
+
+// The precision of the factor methods' files (its default their file's: default_file_encoding).
+constexpr FitParameter kFactorPrecision = {
+    .field = "precision",
+    .type = T::kWord,
+    .member = &FitOptions::precision,
+    .choices = "compact f32 f16 q8",
+    .default_text = "compact",
+    .routes = FitRoute::kNew | FitRoute::kSweep,
+    .help =
+        "compact (quantised with a step per component, predicted from neighbouring pixels "
+        "or directions, zstd), f32, f16 or q8 (8 bits with an offset and scale per "
+        "component)"};
+
+constexpr FitParameter kIterations = {.field = "iterations",
+                                      .type = T::kInteger,
+                                      .member = &FitOptions::iterations,
+                                      .min = 1,
+                                      .max = kMaxSize,
+                                      .routes = kAnyRoute};
+
+constexpr FitParameter kMixtureParameters[] = {
+    {.field = "components",
+     .type = T::kCount,
+     .member = &FitOptions::components,
+     .min = 1,
+     .max = kMaxSize,
+     .default_text = "600",
+     .routes = kNewFit,
+     .help = "mixture components M"},
+    {.field = "iterations",
+     .type = T::kInteger,
+     .member = &FitOptions::iterations,
+     .min = 1,
+     .max = kMaxSize,
+     .default_text = "40",
+     .routes = kAnyRoute,
+     .help = "the most EM iterations (resumed or continued: the total to go on to)"},
+    {.field = "epsilon",
+     .type = T::kReal,
+     .member = &FitOptions::epsilon,
+     .min = 0,
+     .max = 1,
+     .default_text = "0",
+     .routes = kMixtureRoutes,
+     .help = "EM stops when the relative gain of L is below this"},
+    {.field = "objective",
+     .type = T::kWord,
+     .member = &FitOptions::objective,
+     .choices = "prediction likelihood",
+     .default_text = "prediction",
+     .routes = FitRoute::kNew | FitRoute::kResume,
+     .help = "prediction (EM, then the mixture refined for the prediction's error, Eq. 8-11: "
+             "the colour means by least squares, gradient steps on every parameter, the colour "
+             "means again) or likelihood (the paper's EM alone, exactly)"},
+    {.field = "refine_steps",
+     .type = T::kInteger,
+     .member = &FitOptions::refine_steps,
+     .min = 1,
+     .max = kMaxRefineSteps,
+     .routes = kMixtureRoutes,
+     .help = "with the objective prediction, exactly this many Adam steps of the refinement "
+             "(default: until the error on the held-out samples stops falling, at most 2400, "
+             "docs/ALGORITHM.md)"},
+    {.field = "refine_seconds",
+     .type = T::kReal,
+     .member = &FitOptions::refine_seconds,
+     .min = 1,
+     .max = kMaxRefineSeconds,
+     .routes = kAnyRoute,
+     .help =
+         "with the objective prediction, the most seconds the refinement takes, in place of the "
+         "default bound in steps (the lowest held-out error met is kept); the model then "
+         "depends on the machine and its load, as its provenance says"},
+    {.field = "refine_epochs",
+     .type = T::kInteger,
+     .member = &FitOptions::refine_epochs,
+     .min = 1,
+     .max = kMaxRefineEpochs,
+     .routes = kAnyRoute,
+     .help =
+         "with the objective prediction, the most passes over the tile's samples the refinement "
+         "takes, in place of the default bound of at most 2400 steps"},
+    {.field = "device",
+     .type = T::kWord,
+     .member = &FitOptions::device,
+     .choices = "auto cpu gpu",
+     .default_text = "auto",
+     .routes = kMixtureRoutes,
+     .help = "where EM runs: auto (a GPU where one exists, else the CPU), cpu, or gpu (a GPU, "
+             "else a software Vulkan such as lavapipe; docs/GPU.md)"},
+    {.field = "precision",
+     .type = T::kWord,
+     .member = &FitOptions::precision,
+     .choices = "compact f32 f16 q8",
+     .default_text = "compact",
+     .routes = FitRoute::kNew | FitRoute::kSweep,
+     .help = "compact (each parameter quantised with a stated step, zstd; docs/FORMAT.md; q8 "
+             "is the same), f32 (exact, for continue to match one longer fit) or f16"},
+    // The mixture's fit job: checkpoints, resuming, continuing, its log (the front end's).
+    {.field = "checkpoint", .type = T::kText, .routes = kMixtureRoutes},
+    {.field = "checkpoint_every",
+     .type = T::kInteger,
+     .min = 1,
+     .max = kMaxSize,
+     .routes = kMixtureRoutes},
+    {.field = "resume", .type = T::kText, .routes = unsigned(FitRoute::kResume)},
+    {.field = "continue", .type = T::kText, .routes = unsigned(FitRoute::kContinue)},
+    {.field = "log", .type = T::kText, .routes = kMixtureRoutes},
+};
+
+constexpr FitParameter kPcaBtfParameters[] = {
+    {.field = "components",
+     .type = T::kCount,
+     .member = &FitOptions::components,
+     .min = 1,
+     .max = kMaxSize,
+     .default_text = "61",
+     .routes = kNewFit,
+     .help = "eigen-images c"},
+    kFactorPrecision,
+};
+
+constexpr FitParameter kPcaRfParameters[] = {
+    {.field = "components",
+     .type = T::kCount,
+     .member = &FitOptions::components,
+     .min = 1,
+     .max = kMaxSize,
+     .default_text = "6",
+     .routes = kNewFit,
+     .help = "eigen-images c per view"},
+    kFactorPrecision,
+};
+
+constexpr FitParameter kLpcaParameters[] = {
+    {.field = "components",
+     .type = T::kCount,
+     .member = &FitOptions::components,
+     .min = 1,
+     .max = kMaxSize,
+     .default_text = "4",
+     .routes = kNewFit,
+     .help = "components c per cluster"},
+    {.field = "clusters",
+     .type = T::kCount,
+     .member = &FitOptions::clusters,
+     .min = 1,
+     .max = kMaxSize,
+     .default_text = "8",
+     .routes = kNewFit,
+     .help = "clusters k"},
+    {.field = "iterations",
+     .type = T::kInteger,
+     .member = &FitOptions::iterations,
+     .min = 1,
+     .max = kMaxSize,
+     .default_text = "20",
+     .routes = kAnyRoute,
+     .help = "the most re-assignment rounds"},
+    kFactorPrecision,
+};
+
+constexpr FitParameter kPtmRfParameters[] = {kFactorPrecision};
+
+constexpr FitParameter kPlmRfParameters[] = {
+    {.field = "degree",
+     .type = T::kCount,
+     .member = &FitOptions::degree,
+     .min = 0,
+     .max = 64,
+     .default_text = "4",
+     .routes = kNewFit,
+     .help = "the degree l of the per-image polynomial"},
+    {.field = "iterations",
+     .type = T::kInteger,
+     .member = &FitOptions::iterations,
+     .min = 1,
+     .max = kMaxSize,
+     .default_text = "30",
+     .routes = kAnyRoute,
+     .help = "the most Levenberg-Marquardt steps"},
+    kFactorPrecision,
+};
+
+constexpr FitParameter kTextureModelParameters[] = {
+    {.field = "clusters",
+     .type = T::kCount,
+     .member = &FitOptions::clusters,
+     .min = 1,
+     .max = kMaxSize,
+     .default_text = "15",
+     .routes = kNewFit,
+     .help = "BTF subspaces c"},
+    {.field = "levels",
+     .type = T::kInteger,
+     .member = &FitOptions::levels,
+     .min = 1,
+     .max = 16,
+     .default_text = "3",
+     .routes = kNewFit,
+     .help = "levels K of each subspace image's Gaussian-Laplacian pyramid, a model each (3, "
+             "or as many as the tile holds with the coarsest level at least 8 x 8 pixels)"},
+    {.field = "precision",
+     .type = T::kWord,
+     .member = &FitOptions::precision,
+     .choices = "f16 f32 compact q8",
+     .default_text = "f16",
+     .routes = FitRoute::kNew | FitRoute::kSweep,
+     .help = "the range map's storage (its few model parameters are always f32)"},
+};
 
 // One row a method (docs/METHODS.md); `sizes` names the options that set its size.
 const std::vector<MethodInfo>& table() {
@@ -64,15 +285,15 @@ const std::vector<MethodInfo>& table() {
        .title = "Gaussian mixture of product components over (x, y, light, view, RGB)",
        .citation = "the paper btfgmm started from, Eq. (1)-(11)",
        .sizes = "`components` M (mixture components), `iterations` (EM)",
+       .parameters = kMixtureParameters,
        .fit = fit_gaussian_mixture,
        .read = read_gaussian_mixture,
-       .ladder = mixture_ladder,
-       .fit_encoding = FactorEncoding::kCompact,  // its own compact format
-       .smallest_encoding = FactorEncoding::kCompact},
+       .ladder = mixture_ladder},
       {.name = "pca-btf",
        .title = "PCA BTF: one PCA of all images",
        .citation = "Koudelka, Magda, Belhumeur, Kriegman 2003",
        .sizes = "`components` c (eigen-images, 61)",
+       .parameters = kPcaBtfParameters,
        .fit = fit_pca_btf,
        .read = read_pca_btf,
        .ladder = pca_btf_ladder},
@@ -80,6 +301,7 @@ const std::vector<MethodInfo>& table() {
        .title = "PCA RF: a PCA of each view's images",
        .citation = "Sattler, Sarlette, Klein 2003",
        .sizes = "`components` c (eigen-images per view, 6)",
+       .parameters = kPcaRfParameters,
        .fit = fit_pca_rf,
        .read = read_pca_rf,
        .ladder = pca_rf_ladder},
@@ -87,6 +309,7 @@ const std::vector<MethodInfo>& table() {
        .title = "LPCA: a local PCA of the texels' apparent BRDFs (k clusters, a PCA each)",
        .citation = "Mueller, Meseth, Klein 2003; Kambhatla, Leen 1997",
        .sizes = "`clusters` k (8), `components` c (per cluster, 4), `iterations` (rounds, 20)",
+       .parameters = kLpcaParameters,
        .fit = fit_lpca,
        .read = read_lpca,
        .ladder = lpca_ladder},
@@ -94,6 +317,7 @@ const std::vector<MethodInfo>& table() {
        .title = "PTM RF: a polynomial texture map (biquadratic in the light) per view",
        .citation = "Malzbender, Gelb, Wolters 2001",
        .sizes = "none (6 coefficients per texel, view and channel)",
+       .parameters = kPtmRfParameters,
        .fit = fit_ptm_rf,
        .read = read_ptm_rf,
        .ladder = ptm_rf_ladder},
@@ -101,6 +325,7 @@ const std::vector<MethodInfo>& table() {
        .title = "PLM RF: a Lafortune lobe per texel and view, a polynomial per image",
        .citation = "Filip, Haindl 2004",
        .sizes = "`degree` l (4) of the per-image polynomial, `iterations` (30)",
+       .parameters = kPlmRfParameters,
        .fit = fit_plm_rf,
        .read = read_plm_rf,
        .ladder = plm_rf_ladder},
@@ -108,29 +333,26 @@ const std::vector<MethodInfo>& table() {
        .title = "3D CAR: BTF subspaces, a causal autoregressive model of RGB each, a range map",
        .citation = "Haindl, Filip 2007",
        .sizes = "`clusters` c (subspaces, 15), `levels` K (pyramid, 3)",
+       .parameters = kTextureModelParameters,
        .fit = fit_car3d,
        .read = read_car3d,
-       .ladder = texture_model_ladder,
-       .fit_encoding = FactorEncoding::kF16,
-       .smallest_encoding = FactorEncoding::kF16},
+       .ladder = texture_model_ladder},
       {.name = "2d-car",
        .title = "2D CAR: BTF subspaces, a causal autoregressive model per colour band, a range map",
        .citation = "Haindl, Filip 2007",
        .sizes = "`clusters` c (subspaces, 15), `levels` K (pyramid, 3)",
+       .parameters = kTextureModelParameters,
        .fit = fit_car2d,
        .read = read_car2d,
-       .ladder = texture_model_ladder,
-       .fit_encoding = FactorEncoding::kF16,
-       .smallest_encoding = FactorEncoding::kF16},
+       .ladder = texture_model_ladder},
       {.name = "gmrf",
        .title = "GMRF: BTF subspaces, a Gaussian Markov random field per colour band, a range map",
        .citation = "Haindl, Filip 2007",
        .sizes = "`clusters` c (subspaces, 15), `levels` K (pyramid, 3)",
+       .parameters = kTextureModelParameters,
        .fit = fit_gmrf,
        .read = read_gmrf,
-       .ladder = texture_model_ladder,
-       .fit_encoding = FactorEncoding::kF16,
-       .smallest_encoding = FactorEncoding::kF16},
+       .ladder = texture_model_ladder},
   };
   return methods;
 }
@@ -139,7 +361,7 @@ const std::vector<MethodInfo>& table() {
 // at 0 took the method's default, which its size text gives), the seed, the encoding and
 // the threads.
 std::vector<std::pair<std::string, std::string>> settings_record(const MethodInfo& method,
-                                                                 const MethodSettings& s) {
+                                                                 const FitOptions& s) {
   std::vector<std::pair<std::string, std::string>> out = {{"method", std::string(method.name)}};
   auto add = [&](const char* name, std::size_t v) {
     if (v) out.emplace_back(name, std::to_string(v));
@@ -156,7 +378,7 @@ std::vector<std::pair<std::string, std::string>> settings_record(const MethodInf
   }
   add("refine epochs", std::size_t(std::max(s.refine_epochs, 0)));
   out.emplace_back("seed", std::to_string(s.seed));
-  out.emplace_back("precision", std::string(to_string(s.encoding)));
+  out.emplace_back("precision", std::string(to_string(stored_encoding(s))));
   // Not the threads: the model is the same with any number (docs/FORMAT.md, "Provenance").
   return out;
 }
@@ -164,14 +386,16 @@ std::vector<std::pair<std::string, std::string>> settings_record(const MethodInf
 }  // namespace
 
 std::unique_ptr<Representation> fit_and_record(const MethodInfo& method, const Btf& tile,
-                                               const MethodSettings& settings,
+                                               const FitOptions& settings,
                                                const DataFingerprint& data) {
   const auto t0 = Clock::now();
-  std::unique_ptr<Representation> r = method.fit(tile, settings);
+  FitOptions s = settings;
+  if (!s.precision) s.precision = default_file_encoding(method);
+  std::unique_ptr<Representation> r = method.fit(tile, s);
   Provenance p = r->provenance();  // the mixture's holds its EM log
   p.recorded = true;
   p.data = data;
-  p.fit.settings = settings_record(method, settings);
+  p.fit.settings = settings_record(method, s);
   p.fit.settings.emplace_back("size", r->size_text());
   p.fit.seconds = seconds_since(t0);
   p.fit.runs = 1;
@@ -180,7 +404,8 @@ std::unique_ptr<Representation> fit_and_record(const MethodInfo& method, const B
 }
 
 FactorEncoding default_file_encoding(const MethodInfo& method) {
-  return method.fit_encoding;
+  const FitParameter* precision = method_parameter(method, "precision");
+  return parse_factor_encoding(precision->default_text, option_name("precision"));
 }
 
 std::span<const MethodInfo> all_methods() {
@@ -235,12 +460,12 @@ void check_not_folder(const std::filesystem::path& path) {
   if (!std::filesystem::is_directory(path, ec)) return;
   if (holds_images(path))
     throw Error(Error::Kind::kArgument,
-                fmt::format("'{}' is a folder of images, not a model; fit a model to it first: "
-                            "btfgmm fit {} -o model.btfgmm (then give model.btfgmm here)",
-                            path.string(), path.string()));
+                fmt::format("'{}' is a folder of images, not a model; fit a model to it first, "
+                            "then give the model file here",
+                            path.string()));
   throw Error(Error::Kind::kArgument,
-              fmt::format("'{}' is a folder, not a model file; give a .btfgmm file written by "
-                          "'btfgmm fit'",
+              fmt::format("'{}' is a folder, not a model file; give a .btfgmm model file (what "
+                          "a fit writes)",
                           path.string()));
 }
 

@@ -34,3 +34,11 @@ void Representation::set_synthesis_seed(std::uint64_t, std::string_view option) 
 }
 
 }  // namespace btfgmm
+
+namespace btfgmm {
+
+FactorEncoding stored_encoding(const FitOptions& s) {
+  return s.precision.value_or(FactorEncoding::kF16);
+}
+
+}  // namespace btfgmm

@@ -30,7 +30,7 @@ std::string_view method_name(TextureKind kind) {
   return kind == TextureKind::kCar3d ? "3d-car" : kind == TextureKind::kCar2d ? "2d-car" : "gmrf";
 }
 
-void check_settings(TextureKind kind, const Btf& tile, const MethodSettings& s) {
+void check_settings(TextureKind kind, const Btf& tile, const FitOptions& s) {
   const auto refuse = [&](std::string_view option, auto value) {
     throw Error(Error::Kind::kArgument,
                 fmt::format("{} {}: {} takes its size from `clusters` (subspaces) alone and "
@@ -60,7 +60,7 @@ void check_settings(TextureKind kind, const Btf& tile, const MethodSettings& s) 
 }
 
 // The pyramid's levels: as asked, or kDefaultLevels where the tile holds them.
-int pyramid_levels(const Btf& tile, const MethodSettings& s) {
+int pyramid_levels(const Btf& tile, const FitOptions& s) {
   if (s.levels > 0) return s.levels;
   return std::min(kDefaultLevels, detail::max_levels(tile.width(), tile.height(), kMinTileSide));
 }
@@ -81,7 +81,7 @@ Vec3 light_of(const Btf& tile, std::size_t image) {
 // the range map's `features` into `relief`.
 std::vector<TextureModel::Subspace> fit_subspaces(TextureKind kind, const Btf& tile,
                                                   const detail::Subspaces& sub,
-                                                  const MethodSettings& s,
+                                                  const FitOptions& s,
                                                   const detail::ReliefFeatures& features,
                                                   std::vector<detail::ReliefStructure>& relief) {
   std::vector<TextureModel::Subspace> out(sub.representatives.size());
@@ -166,11 +166,11 @@ std::unique_ptr<Representation> read_texture_model(TextureKind kind,
 }
 
 std::unique_ptr<Representation> fit_texture_model(TextureKind kind, const Btf& tile,
-                                                  const MethodSettings& s) {
+                                                  const FitOptions& s) {
   check_settings(kind, tile, s);
   if (s.progress) s.progress(0.0, "range map");
   std::vector<float> heights = estimate_range_map(tile).heights;
-  detail::quantise_factors(heights, heights.size(), s.encoding);
+  detail::quantise_factors(heights, heights.size(), stored_encoding(s));
   const detail::Subspaces sub =
       detail::cluster_images(tile, s.clusters ? s.clusters : kDefaultSubspaces, s.seed);
   const detail::ReliefFeatures features =
@@ -188,7 +188,7 @@ std::unique_ptr<Representation> fit_texture_model(TextureKind kind, const Btf& t
     moments->marginals.push_back(detail::measure_marginal(flat.data(), tile.image_floats() / 3));
   }
   const TextureModel fitted(method_name(kind), ModelFrame::of(tile), sub.labels, std::move(models),
-                            std::move(heights), s.seed, s.encoding, std::move(moments),
+                            std::move(heights), s.seed, stored_encoding(s), std::move(moments),
                             std::move(relief));
   // The model as its file holds it (parameters as 32-bit floats): memory and file agree.
   return read_texture_model(kind, fitted.payload(), fitted.file_flags(), "the fitted model");
@@ -196,13 +196,13 @@ std::unique_ptr<Representation> fit_texture_model(TextureKind kind, const Btf& t
 
 }  // namespace
 
-std::unique_ptr<Representation> fit_car3d(const Btf& tile, const MethodSettings& s) {
+std::unique_ptr<Representation> fit_car3d(const Btf& tile, const FitOptions& s) {
   return fit_texture_model(TextureKind::kCar3d, tile, s);
 }
-std::unique_ptr<Representation> fit_car2d(const Btf& tile, const MethodSettings& s) {
+std::unique_ptr<Representation> fit_car2d(const Btf& tile, const FitOptions& s) {
   return fit_texture_model(TextureKind::kCar2d, tile, s);
 }
-std::unique_ptr<Representation> fit_gmrf(const Btf& tile, const MethodSettings& s) {
+std::unique_ptr<Representation> fit_gmrf(const Btf& tile, const FitOptions& s) {
   return fit_texture_model(TextureKind::kGmrf, tile, s);
 }
 
@@ -219,10 +219,10 @@ std::unique_ptr<Representation> read_gmrf(std::span<const std::uint8_t> payload,
   return read_texture_model(TextureKind::kGmrf, payload, flags, name);
 }
 
-std::vector<MethodSettings> texture_model_ladder(const ModelFrame&) {
-  std::vector<MethodSettings> out;
+std::vector<FitOptions> texture_model_ladder(const ModelFrame&) {
+  std::vector<FitOptions> out;
   for (std::size_t c : {5, 15, 40}) {
-    MethodSettings s;
+    FitOptions s;
     s.clusters = c;
     out.push_back(s);
   }

@@ -37,9 +37,14 @@ std::string did_you_mean(std::string_view given, std::span<const std::string_vie
 // "`refine_steps`". Each front end writes the marked names in its own spelling before it shows
 // a message: spell_options(message, spelling) replaces each by spelling(field) (the command:
 // "--refine-steps"), and leaves any other text as it is.
+// An option given with a value is marked so too, option_value("epsilon", "5") being
+// "`epsilon=5`": spell_options writes spelling(field), `value_separator` and the value (the
+// command: "--epsilon 5"; Python: "epsilon=5").
 std::string option_name(std::string_view field);
+std::string option_value(std::string_view field, std::string_view value);
 std::string spell_options(std::string_view message,
-                          const std::function<std::string(std::string_view field)>& spelling);
+                          const std::function<std::string(std::string_view field)>& spelling,
+                          std::string_view value_separator = " ");
 
 // Wall-clock time for progress and timings.
 using Clock = std::chrono::steady_clock;

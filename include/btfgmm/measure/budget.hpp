@@ -28,13 +28,12 @@ struct BudgetRequest {
   std::uint64_t budget = 0;          // true file bytes, at most
   DataSource source;                 // where the tile was read from (the model's provenance)
   std::vector<std::string> methods;  // by name; empty: every method
-  std::uint64_t seed = 1;
-  int threads = 0;     // 0: OpenMP's default
-  int iterations = 0;  // not 0: the mixture's EM iterations (the other methods: their own)
-  // Not 0: the mixture's refinement's bounds (SweepRequest::refine_seconds, refine_epochs);
-  // in epochs, its models depend on the data, settings and seed alone, not on the machine.
-  double refine_seconds = 0.0;
-  int refine_epochs = 0;
+  // The options every candidate takes where its method takes them (`given`, by field, of
+  // `options`: the seed, threads, iterations, the refinement's bounds), as
+  // SweepRequest::options; checked first, once, by the front end (check_fit_options, route
+  // kBudget: before any work).
+  FitOptions options;
+  std::vector<std::string_view> given;
   std::function<void(const SweepProgress&)> progress;  // each fit's, as run_sweep reports it
   const std::atomic<bool>* stop = nullptr;
   // How the chosen model's note spells the option it names (core/text.hpp, spell_options):

@@ -53,19 +53,15 @@ struct SweepRequest {
   DataSource source;                 // where the tile was read from (the models' provenance)
   std::vector<std::string> methods;  // by name, in the order to fit; empty: every method
   // Settings fitted instead of a method's ladder, by method name (each a method swept).
-  std::map<std::string, std::vector<MethodSettings>, std::less<>> ladders;
-  // Set on every setting (a ladder's own values are replaced); unset: the file `fit` writes
-  // by default (default_file_encoding: the mixture compact, each other method its own).
-  std::optional<FactorEncoding> encoding;
-  int threads = 0;  // 0: OpenMP's default
-  std::uint64_t seed = 1;
-  // Not 0: set on every setting of the methods that iterate (gm: EM; lpca: rounds; plm-rf: LM
-  // steps); the others fit as usual and are named in SweepOutcome::not_iterated.
-  int iterations = 0;
-  // Not 0: the refinement's bounds (MethodSettings::refine_seconds, refine_epochs) on every
-  // setting of the methods that refine (gm); given with none of them swept, Error(kArgument).
-  double refine_seconds = 0.0;
-  int refine_epochs = 0;
+  std::map<std::string, std::vector<FitOptions>, std::less<>> ladders;
+  // The options set on every setting of the methods that take them (a ladder's own values
+  // replaced): the fields `given` (by field)
+  // of `options`: `precision` (unset: the file `fit` writes by default, default_file_encoding),
+  // `seed`, `threads`, `iterations` (the methods that iterate; the others fit as usual and are
+  // named in SweepOutcome::not_iterated), the refinement's bounds (gm; given with gm not
+  // swept, Error(kArgument)).
+  FitOptions options;
+  std::vector<std::string_view> given;
   // Not empty: each model's file is also written there (created if needed), named
   // ModelComparison::name + ".btfgmm".
   std::filesystem::path model_folder;
@@ -96,16 +92,17 @@ struct SweepOutcome {
   bool stopped = false;                   // the stop flag ended the sweep early
 };
 
-// Fits every setting of the request to `tile` and measures it. Throws Error(kArgument) for
-// an unknown method (with the nearest name), a method named twice, a ladder for a method
-// not swept, or refinement bounds out of range or with no method swept that refines; an
+// Fits every setting of the request to `tile` and measures it. The request's options are
+// checked first, once, by its front end (check_fit_options, route kSweep: before any work).
+// Throws Error(kArgument) for an unknown method (with the nearest name), a method named twice,
+// a ladder for a method not swept, or refinement bounds with no method swept that refines; an
 // empty ladder (override) fits nothing for that method. Errors other than a refused setting
 // (kIo writing a model file, ...) end the sweep.
 SweepOutcome run_sweep(const Btf& tile, const SweepRequest& request);
 
 // The settings that set a model's size, for messages: "components 30", "clusters 8,
 // components 4", "degree 4"; "the method's defaults" when none is set.
-std::string settings_text(const MethodSettings& s);
+std::string settings_text(const FitOptions& s);
 
 // The Pareto front of (compression ratio, PSNR) points: point i is on it when no other point
 // has a ratio at least as high and a PSNR at least as high, one of them strictly (the highest

@@ -1,8 +1,7 @@
-// The settings of a fit of any method as `btfgmm fit` takes them, the one table of which method
-// takes which of them (with their ranges), and the fit they ask for: one place for the
-// defaults (the mixture's: FitConfig and EmConfig, model/fit.hpp; the prediction objective and
-// the compact file; each method's own) and for the checks, shared by the command and the
-// Python module, so that both fit the same model and refuse the same options.
+// The options of a fit of any method (FitOptions, methods/representation.hpp) checked against
+// the methods' declarations (methods/parameters.hpp) in one place, and the fit they ask for:
+// shared by the command, the Python module, sweep and the budget, so that all fit the same
+// model and refuse the same options with the same rule.
 #pragma once
 
 #include <atomic>
@@ -18,96 +17,63 @@
 
 #include "btfgmm/core/btf.hpp"
 #include "btfgmm/io/dataset.hpp"
+#include "btfgmm/methods/parameters.hpp"
 #include "btfgmm/methods/registry.hpp"
 #include "btfgmm/methods/representation.hpp"
 #include "btfgmm/model/fit.hpp"
 
 namespace btfgmm {
 
-// A size or count left at 0 and a text left empty take the method's default.
-struct FitOptions {
-  std::string method = "gm";
-  std::size_t components = 0, clusters = 0, degree = 0;
-  int iterations = 0;
-  int levels = 0;                 // 3d-car, 2d-car, gmrf: Gaussian-Laplacian pyramid levels
-  std::optional<double> epsilon;  // the mixture's EM only (default 0: all iterations)
-  std::uint64_t seed = 1;
-  int threads = 0;        // 0: OpenMP's default; the model does not depend on it
-  std::string precision;  // gm: "compact" (default; "q8" too), "f32" or "f16"; others: "q8"
-                          // (default), "f32", "f16"
-  std::string objective;  // gm: "prediction" (default) or "likelihood" (the paper's EM alone)
-  int refine_steps = 0;   // gm, prediction: the refinement's Adam steps (0: its stopping rule)
-  double refine_seconds = 0.0;  // gm, prediction: its bound on time (0: default_refine_seconds)
-  int refine_epochs = 0;  // gm, prediction: its bound in passes over the data (0: none but 1000)
-  std::string device;     // gm: where EM runs, "auto" (default: a GPU where one exists), "cpu",
-                          // "gpu" (docs/GPU.md)
-};
+// The parameters every method takes (`method`, `tile`, the output, `seed`, `threads`), and
+// those of the fit job a front end keeps (`output`, `overwrite`): the common rows beside each
+// method's own (MethodInfo::parameters).
+std::span<const FitParameter> common_fit_parameters();
+// `method`'s declaration of `field` (its own, else the common one); null where it takes none.
+const FitParameter* method_parameter(const MethodInfo& method, std::string_view field);
+// Every field a fit takes, each once (its first declaration): the common ones, then each
+// method's in the registry's order. What the front ends make their options of.
+std::vector<const FitParameter*> fit_parameters();
+// The first declaration of `field` (fit_parameters); null for a field no method takes.
+const FitParameter* find_fit_parameter(std::string_view field);
+// The methods whose own declarations take `field` (none for a common one).
+std::vector<std::string_view> methods_taking(std::string_view field);
 
-// The device `o.device` names (empty: kAuto). Throws Error(kArgument) for any other word.
-DeviceChoice fit_device(const FitOptions& o);
+// The help of `field` from its declarations: a common field's own sentence; else each
+// method's, the methods with the same sentence and default together ("gm: mixture components
+// M (default 600); pca-btf: eigen-images c (default 61); ..."). Options are named marked
+// (option_name) for the front end to spell.
+std::string parameter_help(std::string_view field);
 
-// What a fit request does: a new fit, an interrupted mixture's fit resumed from its
-// checkpoint, a finished mixture continued, or the method and size chosen within a budget.
-enum class FitRoute : unsigned { kNew = 1, kResume = 2, kContinue = 4, kBudget = 8 };
-constexpr unsigned operator|(FitRoute a, FitRoute b) {
-  return unsigned(a) | unsigned(b);
-}
-constexpr unsigned operator|(unsigned a, FitRoute b) {
-  return a | unsigned(b);
-}
-
-// One option of the fit: which methods take it, with which routes it may be given, and its
-// range. Messages name it by `field` (core/text.hpp, option_name), the FitOptions field or,
-// for the options of the command's fit alone (checkpoints, the log, the output), their name.
-struct FitOptionRule {
-  std::string_view field;
-  std::string_view methods;     // the methods that take it, by name, separated by spaces; "all"
-  unsigned routes = 0;          // the FitRoutes it may be given with
-  double min = 0.0, max = 0.0;  // its range; min == max: none (text, or any number)
-  bool takes(std::string_view method) const;
-  bool has_range() const { return min < max; }
-};
-
-// Every option of the fit, in the order messages list them. A new option adds a row; a new
-// method adds its name to the rows it takes.
-std::span<const FitOptionRule> fit_option_rules();
-// The row of `field`; asserts that there is one.
-const FitOptionRule& fit_option_rule(std::string_view field);
-
-// The fields of the options `o` sets (a value other than its default).
+// The fields `o` sets (a value other than FitOptions{}'s), in fit_parameters' order.
 std::vector<std::string_view> given_fields(const FitOptions& o);
 
-// The one check of the options given (by field) against the table: those that cannot apply
-// with `route` (`source`: the checkpoint or model it goes on from, or the field of the budget
-// given) and those of the Gaussian mixture's fit alone given to another `method`. Throws
-// Error(kArgument) naming every such option (option_name), with why and the fix.
-void check_fit_options(std::span<const std::string_view> given, std::string_view method,
-                       FitRoute route, std::string_view source = {});
+// The one check of a fit's options, for every front end and route: the fields `given` (those
+// the front end was given, by field; `o` holds their values) against the declarations of
+// `o.method` (kNew, kResume, kContinue) or of every method (kBudget, kSweep): a field the
+// method does not take (the mixture's alone, or another method's), one that cannot apply with
+// `route` (`source`: the checkpoint or model it goes on from, or the field of the budget), a
+// value out of its range or choices (check_parameter_value), and the refinement's options with
+// the objective likelihood. Throws Error(kArgument) naming the fields (option_name), with why
+// and the fix. Each fit, sweep and budget checks its options once: fit_option_checks counts.
+void check_fit_options(const FitOptions& o, std::span<const std::string_view> given, FitRoute route,
+                       std::string_view source = {});
+// How many times check_fit_options ran in this process.
+std::uint64_t fit_option_checks();
 
-// config.refinement_steps = steps (0: as many as the fit affords). Throws Error(kArgument)
-// for steps outside 0..kMaxRefineSteps, and for steps with an objective other than kPrediction.
-void set_refine_steps(FitConfig& config, int steps);
-// Throws Error(kArgument) for a bound given (not 0) outside its range (a NaN included) or with
-// an objective other than kPrediction (the paper's EM refines nothing).
-void check_refine_bounds(double seconds, int epochs, FitObjective objective);
-// The refinement's bounds where given (> 0): config.refinement_seconds = seconds,
-// config.refinement_epochs = epochs. Throws Error(kArgument) for either given with an
-// objective other than kPrediction (the paper's EM refines nothing) or outside its range.
-void set_refine_bounds(FitConfig& config, double seconds, int epochs);
+// The device `o.device` names (empty: kAuto).
+DeviceChoice fit_device(const FitOptions& o);
 
-// The mixture's fit job from `input` to `output` (the tile, checkpoints and the stop flag are
-// the caller's to set): M = 600, 40 iterations, the prediction objective and the compact file
-// unless given. Throws Error(kArgument) for a precision other than compact (q8), f32 or f16, an
-// unknown objective, refinement steps with the likelihood objective, and for clusters, degree
-// or levels (other methods' sizes).
+// The refinement's options of `o` in `config`: exactly refine_steps steps, or its bounds in
+// seconds and epochs (set_refinement_bounds, model/fit.hpp, reads them). Throws
+// Error(kArgument) for any of them given with an objective other than kPrediction (the
+// paper's EM refines nothing; a continued fit's objective is its model's).
+void set_refinement_options(FitConfig& config, const FitOptions& o);
+
+// The mixture's fit job from `input` to `output` as `o` asks (checked by check_fit_options
+// first; the tile, checkpoints and the stop flag are the caller's to set): M = 600, 40
+// iterations, the prediction objective and the compact file unless given.
 FitRequest mixture_fit_request(const FitOptions& o, const std::string& input,
                                const std::string& output);
-
-// Another method's settings: the sizes as given, the method's own storage unless a precision
-// is given. Throws Error(kArgument) for an epsilon, an objective or refinement steps (the
-// mixture's alone), levels
-// for a method without a pyramid, and a precision that does not parse.
-MethodSettings method_settings(const FitOptions& o, const MethodInfo& method);
 
 // What a fit tells as it goes (the library prints nothing); any member may be empty.
 struct FitProgress {
@@ -120,10 +86,11 @@ struct FitProgress {
 
 // Fits `o.method` to `tile` (empty: the whole image) of `source`, opened from `input`, and
 // records the model's provenance as `btfgmm fit` does: the same data, options and seed give
-// the model `btfgmm fit` writes, the provenance's times aside (docs/FORMAT.md). The mixture's
-// fit stopped by `progress.stop` during EM returns null; during its refinement for the
-// prediction, the model of the lowest error met (complete). Throws Error as the options, the
-// loading and the fit do.
+// the model `btfgmm fit` writes, the provenance's times aside (docs/FORMAT.md). `o` is checked
+// first, once, by its front end (check_fit_options, route kNew: before any work, such as
+// opening the data, is done). The mixture's fit stopped by `progress.stop` during EM returns
+// null; during its refinement for the prediction, the model of the lowest error met
+// (complete). Throws Error as the loading and the fit do.
 std::unique_ptr<Representation> fit_representation(const FitOptions& o, const std::string& input,
                                                    std::shared_ptr<const BtfSource> source,
                                                    const Tile& tile,

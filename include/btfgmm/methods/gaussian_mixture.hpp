@@ -39,6 +39,6 @@ class GaussianMixture final : public Representation {
 
 // fit_model (model/fit.hpp) with `s`: components M (default 600), iterations (default 40),
 // seed; the encoding kF16 stores the parameters as half floats, kQ8 is refused.
-std::unique_ptr<Representation> fit_gaussian_mixture(const Btf& tile, const MethodSettings& s);
+std::unique_ptr<Representation> fit_gaussian_mixture(const Btf& tile, const FitOptions& s);
 
 }  // namespace btfgmm

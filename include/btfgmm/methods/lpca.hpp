@@ -65,14 +65,14 @@ std::uint64_t lpca_parameter_count(const ModelFrame& frame, std::size_t clusters
 
 // Fits LPCA to a tile: s.clusters = k (default 8, at most the texels), s.components = c
 // (default 4, at most 3 * ni * nv and the texels less one), s.iterations = the most rounds
-// (default 20), s.seed (k-means++ seeds), s.encoding, s.threads. Throws Error(kArgument)
+// (default 20), s.seed (k-means++ seeds), s.precision, s.threads. Throws Error(kArgument)
 // naming --clusters, --components or --iterations and its range for this tile.
-std::unique_ptr<Representation> fit_lpca(const Btf& tile, const MethodSettings& s);
+std::unique_ptr<Representation> fit_lpca(const Btf& tile, const FitOptions& s);
 // Reads Lpca::payload(); Error(kFormat) naming `name`.
 std::unique_ptr<Representation> read_lpca(std::span<const std::uint8_t> payload,
                                           std::uint32_t flags, const std::string& name);
 // (k, c) pairs spanning Table 2 ratios from about 1:5 toward 1:500 on `frame`: c = 1 with
 // k = 1, 2, 4, 8, then k = 8 with c growing.
-std::vector<MethodSettings> lpca_ladder(const ModelFrame& frame);
+std::vector<FitOptions> lpca_ladder(const ModelFrame& frame);
 
 }  // namespace btfgmm

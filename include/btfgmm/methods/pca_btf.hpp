@@ -49,13 +49,13 @@ class PcaBtf final : public MeasuredImages {
 std::uint64_t pca_btf_parameter_count(const ModelFrame& frame, std::size_t components);
 
 // Fits PCA BTF to a tile: s.components = c (default 61 as in the paper's Table 2, at most
-// ni*nv - 1 and 3MN), s.encoding, s.threads. Throws Error(kArgument) naming --components and
+// ni*nv - 1 and 3MN), s.precision, s.threads. Throws Error(kArgument) naming --components and
 // its range for this tile, or --clusters.
-std::unique_ptr<Representation> fit_pca_btf(const Btf& tile, const MethodSettings& s);
+std::unique_ptr<Representation> fit_pca_btf(const Btf& tile, const FitOptions& s);
 // Reads PcaBtf::payload(); Error(kFormat) naming `name`.
 std::unique_ptr<Representation> read_pca_btf(std::span<const std::uint8_t> payload,
                                              std::uint32_t flags, const std::string& name);
 // Eigen-image counts spanning Table 2 ratios from about 1:5 to 1:500 on `frame`.
-std::vector<MethodSettings> pca_btf_ladder(const ModelFrame& frame);
+std::vector<FitOptions> pca_btf_ladder(const ModelFrame& frame);
 
 }  // namespace btfgmm

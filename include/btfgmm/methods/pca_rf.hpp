@@ -49,14 +49,14 @@ class PcaRf final : public MeasuredImages {
 std::uint64_t pca_rf_parameter_count(const ModelFrame& frame, std::size_t components);
 
 // Fits PCA RF to a tile: s.components = c (default 6 as in the paper's Table 2, at most
-// ni - 1 and 3MN), s.encoding, s.threads. Throws Error(kArgument) naming --components and its
+// ni - 1 and 3MN), s.precision, s.threads. Throws Error(kArgument) naming --components and its
 // range for this tile, or --clusters.
-std::unique_ptr<Representation> fit_pca_rf(const Btf& tile, const MethodSettings& s);
+std::unique_ptr<Representation> fit_pca_rf(const Btf& tile, const FitOptions& s);
 // Reads PcaRf::payload(); Error(kFormat) naming `name`.
 std::unique_ptr<Representation> read_pca_rf(std::span<const std::uint8_t> payload,
                                             std::uint32_t flags, const std::string& name);
 // Eigen-image counts spanning Table 2 ratios from about 1:5 toward 1:500 on `frame` (a
 // per-view PCA cannot pass 1:ni).
-std::vector<MethodSettings> pca_rf_ladder(const ModelFrame& frame);
+std::vector<FitOptions> pca_rf_ladder(const ModelFrame& frame);
 
 }  // namespace btfgmm

@@ -100,7 +100,7 @@ std::uint64_t plm_rf_parameter_count(const ModelFrame& frame, std::size_t degree
 // Fits the lobes and polynomials: s.degree = l (1..8, default 4), s.iterations = LM steps
 // (1..1000, default 30). Throws Error(kArgument) for fewer than 5 lights, a setting out of
 // range, or --components / --clusters.
-std::unique_ptr<Representation> fit_plm_rf(const Btf& tile, const MethodSettings& s);
+std::unique_ptr<Representation> fit_plm_rf(const Btf& tile, const FitOptions& s);
 // Reads the payload; Error(kFormat) naming `name`.
 std::unique_ptr<Representation> read_plm_rf(std::span<const std::uint8_t> payload,
                                             std::uint32_t flags, const std::string& name);

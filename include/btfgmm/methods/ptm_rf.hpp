@@ -69,7 +69,7 @@ std::uint64_t ptm_rf_parameter_count(const ModelFrame& frame);
 // Fits the maps. Throws Error(kArgument) for fewer than 6 lights, lights that do not
 // determine the biquadratic (e.g. all at one elevation), and any size setting
 // (--components, --clusters, --degree, --iterations): PTM RF has a fixed size.
-std::unique_ptr<Representation> fit_ptm_rf(const Btf& tile, const MethodSettings& s);
+std::unique_ptr<Representation> fit_ptm_rf(const Btf& tile, const FitOptions& s);
 // Reads the payload; Error(kFormat) naming `name`.
 std::unique_ptr<Representation> read_ptm_rf(std::span<const std::uint8_t> payload,
                                             std::uint32_t flags, const std::string& name);

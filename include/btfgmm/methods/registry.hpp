@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "btfgmm/core/btf.hpp"
+#include "btfgmm/methods/parameters.hpp"
 #include "btfgmm/methods/representation.hpp"
 
 namespace btfgmm {
@@ -23,27 +24,26 @@ struct MethodInfo {
   // The options that set its size, named as messages name them (core/text.hpp, option_name):
   // "`components` c (eigen-images, 61)".
   std::string_view sizes;
+  // The method's own parameters (methods/parameters.hpp); with the ones every method takes
+  // (common_fit_parameters, methods/fit_options.hpp), every field a fit of it may be given.
+  std::span<const FitParameter> parameters;
   // Fits the method to a tile. Throws Error(kArgument) naming the option and its allowed
   // range for a setting the tile cannot take.
-  std::function<std::unique_ptr<Representation>(const Btf& tile, const MethodSettings& s)> fit;
+  std::function<std::unique_ptr<Representation>(const Btf& tile, const FitOptions& s)> fit;
   // Reads the method's payload (model/model_file.hpp); Error(kFormat) naming `name`.
   std::function<std::unique_ptr<Representation>(std::span<const std::uint8_t> payload,
                                                 std::uint32_t flags, const std::string& name)>
       read;
   // Settings that span compression ratios from about 1:5 to 1:500 on a tile of this frame
   // (as Table 2 counts them), smallest model first; `sweep` fits each.
-  std::function<std::vector<MethodSettings>(const ModelFrame& frame)> ladder;
-  // The storage `fit` uses when none is asked (read through default_file_encoding), and the
-  // smallest the method takes (docs/METHODS.md, "Storage"): compact (quantised with a stated
-  // step, predicted from neighbours, zstd), the mixture's in its own compact format; f16 and
-  // f32 are the mixture's exact storages.
-  FactorEncoding fit_encoding = FactorEncoding::kCompact;
-  FactorEncoding smallest_encoding = FactorEncoding::kCompact;
+  std::function<std::vector<FitOptions>(const ModelFrame& frame)> ladder;
 };
 
-// The encoding of the file `fit` writes for `method` when no precision is asked: the one place
-// that says it. `fit`, `sweep` and `fit --budget` store every model so, so that the sizes they
-// compare are the sizes a user gets (the mixture: its compact format; the others: fit_encoding).
+// The encoding of the file `fit` writes for `method` when no precision is asked: the default
+// its declaration of `precision` states (compact, the mixture's its own compact format; f16
+// for the range maps of 3D CAR, 2D CAR and GMRF; docs/METHODS.md, "Storage"). `fit`, `sweep` and
+// `fit --budget` store every model so, so that the sizes they compare are the sizes a user gets
+// (the mixture: its compact format; the others: their declared default).
 FactorEncoding default_file_encoding(const MethodInfo& method);
 
 // Every method, the Gaussian mixture ("gm") first.
@@ -55,7 +55,7 @@ const MethodInfo& find_method(std::string_view name);
 // (fingerprint_of, computed once for many fits of one tile), the settings as asked (and the
 // size they gave), the fit's time, and for the mixture its EM log. Throws as the method's fit.
 std::unique_ptr<Representation> fit_and_record(const MethodInfo& method, const Btf& tile,
-                                               const MethodSettings& settings,
+                                               const FitOptions& settings,
                                                const DataFingerprint& data);
 
 // Any method's model file: read (Error(kFormat) naming the file and, where it holds something

@@ -8,6 +8,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <functional>
+#include <optional>
 #include <span>
 #include <string>
 #include <string_view>
@@ -48,24 +49,39 @@ std::string_view to_string(FactorEncoding e);
 // "compact", "f32", "f16" or "q8"; anything else throws Error(kArgument) naming `option`.
 FactorEncoding parse_factor_encoding(std::string_view text, std::string_view option);
 
-// What fitting any method takes. A size left at 0 takes the method's default.
-struct MethodSettings {
-  std::size_t components = 0;  // M for gm; eigen-images c for the PCAs; per cluster for lpca
-  std::size_t clusters = 0;    // lpca: k clusters
-  std::size_t degree = 0;      // plm-rf: degree l of the per-image polynomial
-  int iterations = 0;          // gm: EM; lpca: re-assignment rounds; plm-rf: LM steps
-  int levels = 0;              // 3d-car, 2d-car, gmrf: Gaussian-Laplacian pyramid levels
-  // gm, the objective prediction: the refinement's bounds, as fit's --refine-seconds and
-  // --refine-epochs (0: the default bound in time; epochs alone lift it).
+// The options of a fit of any method: the settings every method takes and each method's own
+// parameters, the one options type from the front ends (the command, Python, sweep, the budget)
+// to a method's fit. Each method declares which fields it takes, with their ranges, choices and
+// defaults (MethodInfo::parameters, methods/registry.hpp), and check_fit_options
+// (methods/fit_options.hpp) checks a request against them once. A number left at 0 and a text
+// or an option left empty take the method's default.
+struct FitOptions {
+  std::string method = "gm";      // the method's name, as MethodInfo::name
+  std::size_t components = 0;     // M for gm; eigen-images c for the PCAs; per cluster for lpca
+  std::size_t clusters = 0;       // lpca: k clusters; 3d-car, 2d-car, gmrf: subspaces
+  std::size_t degree = 0;         // plm-rf: degree l of the per-image polynomial
+  int iterations = 0;             // gm: EM; lpca: re-assignment rounds; plm-rf: LM steps
+  int levels = 0;                 // 3d-car, 2d-car, gmrf: Gaussian-Laplacian pyramid levels
+  std::optional<double> epsilon;  // gm: EM stops when L's relative gain is below it (none: 0)
+  std::string objective;          // gm: "prediction" (empty) or "likelihood"
+  // gm, the objective prediction: the refinement's Adam steps exactly, or its bounds in time
+  // and in passes over the data in place of the default bound in steps.
+  int refine_steps = 0;
   double refine_seconds = 0.0;
   int refine_epochs = 0;
+  std::string device;  // gm: where EM runs: "auto" (empty), "cpu" or "gpu"
   std::uint64_t seed = 1;
-  int threads = 0;                                 // 0: OpenMP's default
-  FactorEncoding encoding = FactorEncoding::kF16;  // of the stored factors
+  int threads = 0;  // 0: OpenMP's default; the model does not depend on it
+  // How the factors are stored; none: the method's default file (default_file_encoding).
+  std::optional<FactorEncoding> precision;
   // Called now and then with the fraction done (0..1) and what is under way.
   std::function<void(double fraction, std::string_view stage)> progress;
   const std::atomic<bool>* stop = nullptr;  // set: stop as soon as possible (Error(kArgument))
 };
+
+// The storage a method's fit uses: `precision`, else f16 (a fit through the registry,
+// fit_and_record, has the method's default file set first).
+FactorEncoding stored_encoding(const FitOptions& s);
 
 // A fitted representation of a BTF tile.
 class Representation {

@@ -148,12 +148,12 @@ class TextureModel final : public Representation {
 
 // Fit each model to a tile: --clusters c (default 15), --levels K (default 3, or as many as
 // the tile holds with the coarsest level at least 8 x 8), the range map stored as
-// s.encoding says. Throws Error(kArgument) for a tile smaller than 8 x 8, more levels than
+// s.precision says. Throws Error(kArgument) for a tile smaller than 8 x 8, more levels than
 // the tile holds (naming the most), fewer than 3 lights near the top for the range map, or
 // a size setting the models do not take (--components, --degree, --iterations).
-std::unique_ptr<Representation> fit_car3d(const Btf& tile, const MethodSettings& s);
-std::unique_ptr<Representation> fit_car2d(const Btf& tile, const MethodSettings& s);
-std::unique_ptr<Representation> fit_gmrf(const Btf& tile, const MethodSettings& s);
+std::unique_ptr<Representation> fit_car3d(const Btf& tile, const FitOptions& s);
+std::unique_ptr<Representation> fit_car2d(const Btf& tile, const FitOptions& s);
+std::unique_ptr<Representation> fit_gmrf(const Btf& tile, const FitOptions& s);
 // Read each payload; Error(kFormat) naming `name`.
 std::unique_ptr<Representation> read_car3d(std::span<const std::uint8_t> payload,
                                            std::uint32_t flags, const std::string& name);
@@ -162,6 +162,6 @@ std::unique_ptr<Representation> read_car2d(std::span<const std::uint8_t> payload
 std::unique_ptr<Representation> read_gmrf(std::span<const std::uint8_t> payload,
                                           std::uint32_t flags, const std::string& name);
 // The sizes sweep fits: c = 5, 15, 40 subspaces.
-std::vector<MethodSettings> texture_model_ladder(const ModelFrame& frame);
+std::vector<FitOptions> texture_model_ladder(const ModelFrame& frame);
 
 }  // namespace btfgmm
