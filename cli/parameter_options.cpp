@@ -26,12 +26,8 @@ std::string value_name(const btfgmm::FitParameter& p) {
 
 // Whether some method takes `field` with `route`.
 bool taken_with(std::string_view field, btfgmm::FitRoute route) {
-  for (const btfgmm::FitParameter& p : btfgmm::common_fit_parameters())
-    if (p.field == field) return p.takes_route(route);
-  for (const btfgmm::MethodInfo& m : btfgmm::all_methods())
-    for (const btfgmm::FitParameter& p : m.parameters)
-      if (p.field == field && p.takes_route(route)) return true;
-  return false;
+  const btfgmm::FitParameter* p = btfgmm::route_parameter(field, route);
+  return p && p->takes_route(route);
 }
 
 }  // namespace

@@ -201,11 +201,10 @@ class FitWatch {
 
 // A keyword's value as the declarations take it: a whole number, a real number or a word.
 ParameterValue keyword_value(const py::handle& value) {
-  const std::string shown = py::str(py::repr(value));
   if (py::isinstance<py::str>(value)) return value.cast<std::string>();
   if (py::isinstance<py::bool_>(value) ||
       !(py::isinstance<py::int_>(value) || py::isinstance<py::float_>(value)))
-    return shown;  // refused as declared (check_parameter_value) with what it takes
+    return std::string(py::str(py::repr(value)));  // refused as declared, with what it takes
   if (py::isinstance<py::float_>(value)) return value.cast<double>();
   try {
     return value.cast<std::int64_t>();

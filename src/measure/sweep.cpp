@@ -44,12 +44,6 @@ std::vector<const MethodInfo*> chosen_methods(const SweepRequest& r) {
   return out;
 }
 
-// Whether the method takes `field` as its own parameter.
-bool takes(const MethodInfo& m, std::string_view field) {
-  return std::any_of(m.parameters.begin(), m.parameters.end(),
-                     [field](const FitParameter& p) { return p.field == field; });
-}
-
 bool given(const SweepRequest& r, std::string_view field) {
   return std::find(r.given.begin(), r.given.end(), field) != r.given.end();
 }
@@ -61,7 +55,7 @@ void check_refinement_bounds(const SweepRequest& r, std::span<const MethodInfo* 
                                                               : "";
   if (field.empty()) return;
   if (std::none_of(methods.begin(), methods.end(),
-                   [field](const MethodInfo* m) { return takes(*m, field); }))
+                   [field](const MethodInfo* m) { return method_parameter(*m, field) != nullptr; }))
     throw Error(Error::Kind::kArgument,
                 fmt::format("sweep: {} bound the refinement of the Gaussian mixture (gm), which "
                             "is not swept; add gm to the methods or leave them out",
@@ -235,7 +229,7 @@ SweepOutcome run_sweep(const Btf& tile, const SweepRequest& request) {
   out.pareto = pareto_front(out.models);
   if (given(request, "iterations"))
     for (const MethodInfo* m : chosen_methods(request))
-      if (!takes(*m, "iterations")) out.not_iterated.emplace_back(m->name);
+      if (!method_parameter(*m, "iterations")) out.not_iterated.emplace_back(m->name);
   return out;
 }
 

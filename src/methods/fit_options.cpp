@@ -92,20 +92,10 @@ std::string route_reason(FitRoute route, std::string_view source) {
 }
 
 // The declaration of `field` that applies to a request of `route`: `method`'s, or for a
-// budget or a sweep (every method) the first that takes the route, else the first.
+// budget or a sweep (every method) route_parameter's.
 const FitParameter* applying_parameter(const MethodInfo* method, std::string_view field,
                                        FitRoute route) {
-  if (method) return method_parameter(*method, field);
-  const FitParameter* first = nullptr;
-  for (const FitParameter& p : common_fit_parameters())
-    if (p.field == field) return &p;
-  for (const MethodInfo& m : all_methods())
-    for (const FitParameter& p : m.parameters)
-      if (p.field == field) {
-        if (p.takes_route(route)) return &p;
-        if (!first) first = &p;
-      }
-  return first;
+  return method ? method_parameter(*method, field) : route_parameter(field, route);
 }
 
 // The fields given that `method` does not take (a new fit): the mixture's alone, then the
@@ -147,6 +137,14 @@ void refuse_fields_off_route(std::span<const std::string_view> given, const Meth
     throw Error(Error::Kind::kArgument,
                 fmt::format("{} cannot apply {}; leave {} out", named_fields(off_route),
                             route_reason(route, source), it_or_them(off_route)));
+}
+
+// The refinement's option `field` given with an objective other than the prediction.
+[[noreturn]] void refuse_refinement_without_prediction(std::string_view field) {
+  throw Error(Error::Kind::kArgument,
+              fmt::format("{} applies to the objective prediction only (the paper's EM, {} "
+                          "likelihood, refines nothing); leave one of them out",
+                          option_name(field), option_name("objective")));
 }
 
 constexpr std::string_view kRefinementFields[] = {"refine_steps", "refine_seconds",
@@ -204,6 +202,19 @@ std::vector<const FitParameter*> fit_parameters() {
   for (const MethodInfo& m : all_methods())
     for (const FitParameter& p : m.parameters) add(p);
   return out;
+}
+
+const FitParameter* route_parameter(std::string_view field, FitRoute route) {
+  for (const FitParameter& p : kCommonParameters)
+    if (p.field == field) return &p;
+  const FitParameter* first = nullptr;
+  for (const MethodInfo& m : all_methods())
+    for (const FitParameter& p : m.parameters)
+      if (p.field == field) {
+        if (p.takes_route(route)) return &p;
+        if (!first) first = &p;
+      }
+  return first;
 }
 
 const FitParameter* find_fit_parameter(std::string_view field) {
@@ -266,10 +277,7 @@ void check_fit_options(const FitOptions& o, std::span<const std::string_view> gi
   if (o.objective != "likelihood") return;
   for (const std::string_view f : kRefinementFields)
     if (std::find(given.begin(), given.end(), f) != given.end())
-      throw Error(Error::Kind::kArgument,
-                  fmt::format("{} applies to the objective prediction only (the paper's EM, {} "
-                              "likelihood, refines nothing); leave one of them out",
-                              option_name(f), option_name("objective")));
+      refuse_refinement_without_prediction(f);
 }
 
 std::uint64_t fit_option_checks() {
@@ -281,15 +289,10 @@ DeviceChoice fit_device(const FitOptions& o) {
 }
 
 void set_refinement_options(FitConfig& config, const FitOptions& o) {
-  const std::pair<std::string_view, bool> given[] = {{"refine_steps", o.refine_steps != 0},
-                                                     {"refine_seconds", o.refine_seconds != 0},
-                                                     {"refine_epochs", o.refine_epochs != 0}};
-  for (const auto& [field, set] : given)
-    if (set && config.objective != FitObjective::kPrediction)
-      throw Error(Error::Kind::kArgument,
-                  fmt::format("{} applies to the objective prediction only (the paper's EM, {} "
-                              "likelihood, refines nothing); leave one of them out",
-                              option_name(field), option_name("objective")));
+  if (config.objective != FitObjective::kPrediction)
+    for (const std::string_view field : kRefinementFields)
+      if (parameter_value(o, *find_fit_parameter(field)))
+        refuse_refinement_without_prediction(field);
   if (o.refine_steps > 0) config.refinement_steps = o.refine_steps;
   if (o.refine_seconds > 0) config.refinement_seconds = o.refine_seconds;
   if (o.refine_epochs > 0) config.refinement_epochs = o.refine_epochs;

@@ -3,9 +3,11 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <charconv>
 #include <cmath>
 #include <type_traits>
+#include <vector>
 
 #include "btfgmm/core/error.hpp"
 #include "btfgmm/core/text.hpp"
@@ -13,14 +15,20 @@
 namespace btfgmm {
 namespace {
 
-// The words of a kWord parameter, "a, b or c".
-std::string choices_text(std::string_view choices) {
+// The words of a kWord parameter's choices, separated by spaces.
+std::vector<std::string_view> words_of(std::string_view choices) {
   std::vector<std::string_view> words;
   for (std::size_t at = 0; at < choices.size();) {
     const std::size_t end = std::min(choices.find(' ', at), choices.size());
     words.push_back(choices.substr(at, end - at));
     at = end + 1;
   }
+  return words;
+}
+
+// "a, b or c".
+std::string choices_text(std::string_view choices) {
+  const std::vector<std::string_view> words = words_of(choices);
   std::string out;
   for (std::size_t k = 0; k < words.size(); ++k)
     out += fmt::format("{}{}", k == 0 ? "" : (k + 1 == words.size() ? " or " : ", "), words[k]);
@@ -28,12 +36,8 @@ std::string choices_text(std::string_view choices) {
 }
 
 bool is_choice(std::string_view choices, std::string_view word) {
-  for (std::size_t at = 0; at <= choices.size();) {
-    const std::size_t end = std::min(choices.find(' ', at), choices.size());
-    if (choices.substr(at, end - at) == word) return true;
-    at = end + 1;
-  }
-  return false;
+  const std::vector<std::string_view> words = words_of(choices);
+  return std::find(words.begin(), words.end(), word) != words.end();
 }
 
 std::string range_text(const FitParameter& p) {

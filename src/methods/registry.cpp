@@ -80,30 +80,34 @@ constexpr FitParameter kFactorPrecision = {
         "or directions, zstd), f32, f16 or q8 (8 bits with an offset and scale per "
         "component)"};
 
-constexpr FitParameter kIterations = {.field = "iterations",
-                                      .type = T::kInteger,
-                                      .member = &FitOptions::iterations,
-                                      .min = 1,
-                                      .max = kMaxSize,
-                                      .routes = kAnyRoute};
+// A size of the model (mixture components, eigen-images, clusters), given to a new fit.
+constexpr FitParameter model_size(std::string_view field, std::size_t FitOptions::*member,
+                                  std::string_view default_text, std::string_view help) {
+  return {.field = field,
+          .type = T::kCount,
+          .member = member,
+          .min = 1,
+          .max = kMaxSize,
+          .default_text = default_text,
+          .routes = kNewFit,
+          .help = help};
+}
+
+// The most iterations of a method that iterates (EM, rounds, LM steps), on any route.
+constexpr FitParameter most_iterations(std::string_view default_text, std::string_view help) {
+  return {.field = "iterations",
+          .type = T::kInteger,
+          .member = &FitOptions::iterations,
+          .min = 1,
+          .max = kMaxSize,
+          .default_text = default_text,
+          .routes = kAnyRoute,
+          .help = help};
+}
 
 constexpr FitParameter kMixtureParameters[] = {
-    {.field = "components",
-     .type = T::kCount,
-     .member = &FitOptions::components,
-     .min = 1,
-     .max = kMaxSize,
-     .default_text = "600",
-     .routes = kNewFit,
-     .help = "mixture components M"},
-    {.field = "iterations",
-     .type = T::kInteger,
-     .member = &FitOptions::iterations,
-     .min = 1,
-     .max = kMaxSize,
-     .default_text = "40",
-     .routes = kAnyRoute,
-     .help = "the most EM iterations (resumed or continued: the total to go on to)"},
+    model_size("components", &FitOptions::components, "600", "mixture components M"),
+    most_iterations("40", "the most EM iterations (resumed or continued: the total to go on to)"),
     {.field = "epsilon",
      .type = T::kReal,
      .member = &FitOptions::epsilon,
@@ -178,54 +182,19 @@ constexpr FitParameter kMixtureParameters[] = {
 };
 
 constexpr FitParameter kPcaBtfParameters[] = {
-    {.field = "components",
-     .type = T::kCount,
-     .member = &FitOptions::components,
-     .min = 1,
-     .max = kMaxSize,
-     .default_text = "61",
-     .routes = kNewFit,
-     .help = "eigen-images c"},
+    model_size("components", &FitOptions::components, "61", "eigen-images c"),
     kFactorPrecision,
 };
 
 constexpr FitParameter kPcaRfParameters[] = {
-    {.field = "components",
-     .type = T::kCount,
-     .member = &FitOptions::components,
-     .min = 1,
-     .max = kMaxSize,
-     .default_text = "6",
-     .routes = kNewFit,
-     .help = "eigen-images c per view"},
+    model_size("components", &FitOptions::components, "6", "eigen-images c per view"),
     kFactorPrecision,
 };
 
 constexpr FitParameter kLpcaParameters[] = {
-    {.field = "components",
-     .type = T::kCount,
-     .member = &FitOptions::components,
-     .min = 1,
-     .max = kMaxSize,
-     .default_text = "4",
-     .routes = kNewFit,
-     .help = "components c per cluster"},
-    {.field = "clusters",
-     .type = T::kCount,
-     .member = &FitOptions::clusters,
-     .min = 1,
-     .max = kMaxSize,
-     .default_text = "8",
-     .routes = kNewFit,
-     .help = "clusters k"},
-    {.field = "iterations",
-     .type = T::kInteger,
-     .member = &FitOptions::iterations,
-     .min = 1,
-     .max = kMaxSize,
-     .default_text = "20",
-     .routes = kAnyRoute,
-     .help = "the most re-assignment rounds"},
+    model_size("components", &FitOptions::components, "4", "components c per cluster"),
+    model_size("clusters", &FitOptions::clusters, "8", "clusters k"),
+    most_iterations("20", "the most re-assignment rounds"),
     kFactorPrecision,
 };
 
@@ -240,26 +209,12 @@ constexpr FitParameter kPlmRfParameters[] = {
      .default_text = "4",
      .routes = kNewFit,
      .help = "the degree l of the per-image polynomial"},
-    {.field = "iterations",
-     .type = T::kInteger,
-     .member = &FitOptions::iterations,
-     .min = 1,
-     .max = kMaxSize,
-     .default_text = "30",
-     .routes = kAnyRoute,
-     .help = "the most Levenberg-Marquardt steps"},
+    most_iterations("30", "the most Levenberg-Marquardt steps"),
     kFactorPrecision,
 };
 
 constexpr FitParameter kTextureModelParameters[] = {
-    {.field = "clusters",
-     .type = T::kCount,
-     .member = &FitOptions::clusters,
-     .min = 1,
-     .max = kMaxSize,
-     .default_text = "15",
-     .routes = kNewFit,
-     .help = "BTF subspaces c"},
+    model_size("clusters", &FitOptions::clusters, "15", "BTF subspaces c"),
     {.field = "levels",
      .type = T::kInteger,
      .member = &FitOptions::levels,

@@ -55,11 +55,10 @@ struct SweepRequest {
   // Settings fitted instead of a method's ladder, by method name (each a method swept).
   std::map<std::string, std::vector<FitOptions>, std::less<>> ladders;
   // The options set on every setting of the methods that take them (a ladder's own values
-  // replaced): the fields `given` (by field)
-  // of `options`: `precision` (unset: the file `fit` writes by default, default_file_encoding),
-  // `seed`, `threads`, `iterations` (the methods that iterate; the others fit as usual and are
-  // named in SweepOutcome::not_iterated), the refinement's bounds (gm; given with gm not
-  // swept, Error(kArgument)).
+  // replaced): the fields `given` (by field) of `options`: `precision` (unset: the file `fit`
+  // writes by default, default_file_encoding), `seed`, `threads`, `iterations` (the methods
+  // that iterate; the others fit as usual and are named in SweepOutcome::not_iterated), the
+  // refinement's bounds (gm; given with gm not swept, Error(kArgument)).
   FitOptions options;
   std::vector<std::string_view> given;
   // Not empty: each model's file is also written there (created if needed), named

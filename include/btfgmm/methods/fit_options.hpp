@@ -35,6 +35,10 @@ const FitParameter* method_parameter(const MethodInfo& method, std::string_view 
 std::vector<const FitParameter*> fit_parameters();
 // The first declaration of `field` (fit_parameters); null for a field no method takes.
 const FitParameter* find_fit_parameter(std::string_view field);
+// The declaration of `field` for a request of every method (a budget, a sweep): the common
+// one, else the first method's that takes `route`, else the first; null for a field no method
+// takes.
+const FitParameter* route_parameter(std::string_view field, FitRoute route);
 // The methods whose own declarations take `field` (none for a common one).
 std::vector<std::string_view> methods_taking(std::string_view field);
 
