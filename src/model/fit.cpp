@@ -329,7 +329,10 @@ BtfModel fit_samples(const SampleSet& samples, const FitTile& tile, const FitCon
     const PredictionRefinement done =
         refine_for_prediction(samples, mix, config.em.threads, gradient);
     if (refined) *refined = done;
-    final_l = mean_log_likelihood(samples, mix, config.em.threads);
+    // Stopped before it changed the parameters (no step, no colour refit kept): they are EM's,
+    // whose L is known, and a Ctrl-C is not kept waiting for a pass over every sample.
+    const bool left_as_em = done.stopped && done.steps == 0 && done.error_final == done.error_em;
+    if (!left_as_em) final_l = mean_log_likelihood(samples, mix, config.em.threads);
   }
   BtfModel m = model_of(tile, samples, config, std::move(mix), em);
   m.settings.log_likelihood = final_l;
