@@ -16,6 +16,7 @@
 #include <vector>
 
 #include "btfgmm/model/refine.hpp"
+#include "core/adam.hpp"
 #include "core/fast_exp.hpp"
 #include "model/grid_weights.hpp"
 #include "model/mixture_internal.hpp"
@@ -388,26 +389,14 @@ void keep_within_bounds(std::vector<double>& theta, const ProductMixture& mix) {
       theta[k * kParams + 1 + kVariables + std::size_t(n)] = std::log(mix.var[k][std::size_t(n)]);
 }
 
-// Adam (Kingma & Ba 2015: beta 0.9, 0.999, bias-corrected moments) on the parameter vector,
-// its moments and step count kept between steps.
-struct Adam {
-  std::vector<double> theta, m1, m2;
-  int t = 0;
-  explicit Adam(std::vector<double> start)
-      : theta(std::move(start)), m1(theta.size(), 0.0), m2(theta.size(), 0.0) {}
-  // One step along `grad` at `rate` (`colour_rate` for the colour means).
-  void step(const std::vector<double>& grad, double rate, double colour_rate) {
-    ++t;
-    const double c1 = 1.0 - std::pow(0.9, t), c2 = 1.0 - std::pow(0.999, t);
-    for (std::size_t i = 0; i < theta.size(); ++i) {
-      m1[i] = 0.9 * m1[i] + 0.1 * grad[i];
-      m2[i] = 0.999 * m2[i] + 0.001 * grad[i] * grad[i];
-      const std::size_t j = i % kParams;
-      const double r = j >= 7 && j < 10 ? colour_rate : rate;
-      theta[i] -= r * (m1[i] / c1) / (std::sqrt(m2[i] / c2) + 1e-300);
-    }
-  }
-};
+// The Adam rate of each entry of the parameter vector (core/adam.hpp): `colour_rate` for the
+// colour means, `rate` for the others.
+auto rate_of_parameter(double rate, double colour_rate) {
+  return [rate, colour_rate](std::size_t i) {
+    const std::size_t j = i % kParams;
+    return j >= 7 && j < 10 ? colour_rate : rate;
+  };
+}
 
 // The stopping rule on the validation error (GradientConfig): the lowest met, the error the
 // next gain is measured from, the validations since the last gain, the rate's halvings.
@@ -566,7 +555,7 @@ void gradient_epochs(const SampleSet& samples, ProductMixture& mix, int threads,
       at.weighed += g.weighed * double(g.samples);
       const double warm_up = std::min(1.0, double(adam.t + 1) / kWarmUpSteps);
       const double scale = warm_up * rule.rate_scale;
-      adam.step(pack(g), config.rate * scale, config.colour_rate * scale);
+      adam.step(pack(g), rate_of_parameter(config.rate * scale, config.colour_rate * scale));
       unpack(adam.theta, mix, periods);
       keep_within_bounds(adam.theta, mix);
       ++out.steps;
