@@ -137,6 +137,10 @@ void add_budget_and_run_options(CLI::App& app, FitArguments& a) {
   f->add_option("--ratio", fit->ratio,
                 "As --budget, with the budget the tile's data bytes (a byte a value) over R")
       ->check(CLI::Range(1.0, 1e9));
+  f->add_flag("--exhaustive", fit->exhaustive,
+              "With --budget or --ratio: fit every size the search tries in full, as sweep "
+              "does, also the Gaussian mixture's (whose size is otherwise predicted from short "
+              "fits and only the one chosen fitted in full): slower, for comparison");
   f->add_option("-o,--output", fit->out, "The model file to write (.btfgmm)");
   f->add_option("--checkpoint", fit->checkpoint,
                 "Save the fit's state here (atomically) every --checkpoint-every iterations and "

@@ -1,6 +1,7 @@
 // btfgmm fit --budget / --ratio: see budget_fit.hpp.
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <cmath>
 
 #include "btfgmm/btfgmm.hpp"
@@ -26,15 +27,25 @@ std::uint64_t budget_bytes(const FitArguments& o, const Btf& tile) {
   return std::uint64_t(std::floor(raw / o.ratio));
 }
 
-// The candidates tried, on stderr: method, size, true file bytes, PSNR, the one chosen.
+// "M = 1984", with ", steps x1.19" where the file was stored with coarser steps.
+std::string size_text(const BudgetCandidate& b) {
+  if (b.step_factor == 1.0) return b.size;
+  return fmt::format("{}, steps x{:.2f}", b.size, b.step_factor);
+}
+
+// The candidates tried, on stderr: method, size, true file bytes, PSNR, the one chosen; then
+// the quick searches' probes.
 void print_candidates(const BudgetChoice& c, std::uint64_t budget) {
   fmt::print(stderr, "{:<8} {:<24} {:>10} {:>8}  {}\n", "method", "size", "file bytes", "PSNR dB",
              "");
   for (std::size_t k = 0; k < c.candidates.size(); ++k) {
     const BudgetCandidate& b = c.candidates[k];
-    fmt::print(stderr, "{:<8} {:<24} {:>10} {:>8}  {}\n", b.method, b.size, b.file_bytes,
+    fmt::print(stderr, "{:<8} {:<24} {:>10} {:>8}  {}\n", b.method, size_text(b), b.file_bytes,
                db_text(b.psnr_db), k == c.chosen ? "chosen" : (b.fits ? "" : "over the budget"));
   }
+  for (const BudgetProbe& p : c.probes)
+    fmt::print(stderr, "probe    {} {}: {} bytes, a full fit's predicted at {:.0f}\n", p.method,
+               p.settings, p.file_bytes, p.predicted_bytes);
   for (const SkippedSetting& s : c.skipped)
     fmt::print(stderr, "skipped  {} {}: {}\n", s.method, s.settings, command_line_text(s.message));
   for (const std::string& m : c.synthesis_methods)
@@ -44,8 +55,31 @@ void print_candidates(const BudgetChoice& c, std::uint64_t budget) {
              "chose {} {}: {} bytes of the {} budgeted, the highest PSNR ({} dB) of the "
              "candidates that fit (each method's largest size whose file fits: its ladder of "
              "sizes, as sweep fits it, walked up, then the sizes between rungs and above the "
-             "largest predicted and confirmed; every file as fit writes it by default)\n",
-             b.method, b.size, b.file_bytes, budget, db_text(b.psnr_db));
+             "largest predicted and confirmed, or, for a method with a quick search, its size "
+             "predicted from short fits; every file as fit writes it by default)\n",
+             b.method, size_text(b), b.file_bytes, budget, db_text(b.psnr_db));
+}
+
+// What the search will do, before it starts: each method's search and its most fits.
+void print_plan(const BudgetRequest& r, const Btf& tile) {
+  const ModelFrame frame = ModelFrame::of(tile);
+  for (const MethodInfo& m : all_methods()) {
+    if (!r.methods.empty() &&
+        std::find(r.methods.begin(), r.methods.end(), m.name) == r.methods.end())
+      continue;
+    const std::size_t rungs = m.ladder(frame).size();
+    if (m.synthesises)
+      fmt::print(stderr, "  {:<8} left out: it synthesises new texture, no pixel-wise PSNR\n",
+                 m.name);
+    else if (m.quick_search.probe && !r.exhaustive)
+      fmt::print(stderr, "  {:<8} quick: {}; at most {} probes and 2 full fits\n", m.name,
+                 m.quick_search.summary, std::max<std::size_t>(rungs, 2));
+    else
+      fmt::print(stderr,
+                 "  {:<8} its ladder's {} sizes walked up while the file fits, then the sizes "
+                 "between or above them\n",
+                 m.name, rungs);
+  }
 }
 
 }  // namespace
@@ -71,14 +105,23 @@ void run_budget_fit(const FitArguments& o) {
                     o.ratio, ModelFrame::of(tile).data_values()));
   r.source = {o.input, src.info().width, src.info().height};
   r.option_spelling = command_line_option;
+  r.exhaustive = o.exhaustive;
+  double last = 0.0;  // when a fit's progress was last printed
   if (!o.quiet) {
     fmt::print(stderr, "budget {} bytes for the {}x{} tile ({:.0f} data bytes, 1:{:.1f})\n",
                r.budget, tile.width(), tile.height(), ModelFrame::of(tile).data_values(),
                ModelFrame::of(tile).data_values() / double(r.budget));
+    print_plan(r, tile);
     r.progress = [&](const SweepProgress& p) {
-      if (p.event == SweepProgress::Event::kStart)
-        fmt::print(stderr, "fitting {} {} ({})\n", p.method, p.settings,
-                   human_seconds(seconds_since(t0)));
+      const double now = seconds_since(t0);
+      if (p.event == SweepProgress::Event::kStart) {
+        fmt::print(stderr, "fitting {} {} ({})\n", p.method, p.settings, human_seconds(now));
+        last = now;
+      } else if (p.event == SweepProgress::Event::kFit && now - last >= 15.0) {
+        fmt::print(stderr, "  {} {}: {} {:.0f}% ({})\n", p.method, p.settings, p.stage,
+                   100.0 * p.fraction, human_seconds(now));
+        last = now;
+      }
     };
   }
   r.stop = &g_stop;

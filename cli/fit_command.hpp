@@ -25,6 +25,7 @@ struct FitArguments {
   int checkpoint_every = 1;
   std::uint64_t budget = 0;  // --budget BYTES (0: none)
   double ratio = 0.0;        // --ratio R (0: none)
+  bool exhaustive = false;   // --exhaustive: every size tried fitted in full
   // The options given on the command line, by long name ("--components"), each with the
   // names it goes by ("-M/--components") for messages; and by field, in the declarations'
   // order (the parameters and the job's options alike).

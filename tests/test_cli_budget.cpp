@@ -117,12 +117,13 @@ TEST(BudgetCli, ChoosesTheBestCandidateThatFits) {
   EXPECT_NE(r.out.find("chosen by --budget 2880 bytes"), std::string::npos) << r.out;
 
   // Below every rung: the sizes under the smallest are searched (the mixture down to M = 1).
-  r = run("fit " + d + "/btf --budget 1000 --iterations 2 -o " + d + "/c.btfgmm");
+  r = run("fit " + d + "/btf --budget 1000 --iterations 2 --exhaustive -o " + d + "/c.btfgmm");
   ASSERT_EQ(r.status, 0) << r.err;
   for (const Row& row : candidates(r.err)) least = std::min(least, row.bytes);
   EXPECT_LT(least, 1000u) << r.err;
   // A budget below every method's smallest file names it truly: that budget fits, one less not.
-  r = run("fit " + d + "/btf --budget 500 --iterations 2 -o " + d + "/c.btfgmm --overwrite");
+  r = run("fit " + d + "/btf --budget 500 --iterations 2 --exhaustive -o " + d +
+          "/c.btfgmm --overwrite");
   EXPECT_EQ(r.status, 1);
   const std::string named = "the smallest possible for this tile is ";
   const std::size_t at = r.err.find(named);
@@ -130,12 +131,15 @@ TEST(BudgetCli, ChoosesTheBestCandidateThatFits) {
   const std::uint64_t smallest = std::stoull(r.err.substr(at + named.size()));
   EXPECT_NE(r.err.find("(gm M = 1)"), std::string::npos) << r.err;
   EXPECT_NE(r.err.find(fmt::format("give --budget {} or more", smallest)), std::string::npos);
-  r = run(fmt::format("fit {}/btf --budget {} --iterations 2 -o {}/c.btfgmm --overwrite", d,
-                      smallest, d));
+  r =
+      run(fmt::format("fit {}/btf --budget {} --iterations 2 --exhaustive -o {}/c.btfgmm "
+                      "--overwrite",
+                      d, smallest, d));
   EXPECT_EQ(r.status, 0) << r.err;
   EXPECT_EQ(fs::file_size(d + "/c.btfgmm"), smallest);
   fs::remove(d + "/c.btfgmm");
-  r = run(fmt::format("fit {}/btf --budget {} --iterations 2 -o {}/c.btfgmm", d, smallest - 1, d));
+  r = run(fmt::format("fit {}/btf --budget {} --iterations 2 --exhaustive -o {}/c.btfgmm", d,
+                      smallest - 1, d));
   EXPECT_EQ(r.status, 1) << r.err;
   EXPECT_FALSE(fs::exists(d + "/c.btfgmm"));
   // The budget chooses the method and size: naming either is an error naming both.
@@ -151,6 +155,9 @@ TEST(BudgetCli, ChoosesTheBestCandidateThatFits) {
   r = run("fit " + d + "/btf --ratio 4 --budget 100 -o " + d + "/c.btfgmm");
   EXPECT_EQ(r.status, 1);
   EXPECT_NE(r.err.find("--budget and --ratio"), std::string::npos) << r.err;
+  r = run("fit " + d + "/btf --exhaustive -o " + d + "/c.btfgmm");
+  EXPECT_EQ(r.status, 1);
+  EXPECT_NE(r.err.find("--exhaustive"), std::string::npos) << r.err;
   fs::remove_all(dir);
 }
 
@@ -200,8 +207,9 @@ TEST(BudgetCli, NeverWorseThanAPlainFitAndFindsTheLargestSizeThatFits) {
   const double default_psnr = nlohmann::json::parse(r.out)["psnr_db"].get<double>();
   // The chosen file carries the choice's note: room for it.
   const std::uint64_t budget = fs::file_size(dir / "default.btfgmm") + 200;
-  r = run(fmt::format("fit {}/btf --budget {} --iterations 2 --refine-epochs 2 -o {}/b.btfgmm", d,
-                      budget, d));
+  r = run(fmt::format(
+      "fit {}/btf --budget {} --iterations 2 --refine-epochs 2 --exhaustive -o {}/b.btfgmm", d,
+      budget, d));
   ASSERT_EQ(r.status, 0) << r.err;
   const std::vector<Row> rows = candidates(r.err);
   const Row* chosen = nullptr;
@@ -216,7 +224,8 @@ TEST(BudgetCli, NeverWorseThanAPlainFitAndFindsTheLargestSizeThatFits) {
   }
 
   // A budget between the mixture's rungs: its largest M that fits, the next one over.
-  r = run(fmt::format("fit {}/btf --budget {} --iterations 2 -o {}/c.btfgmm", d, budget / 2, d));
+  r = run(fmt::format("fit {}/btf --budget {} --iterations 2 --exhaustive -o {}/c.btfgmm", d,
+                      budget / 2, d));
   ASSERT_EQ(r.status, 0) << r.err;
   const auto [largest_fit, least_over] = largest_fit_and_least_over(candidates(r.err), "gm");
   ASSERT_GT(largest_fit, 0u) << r.err;
@@ -225,14 +234,75 @@ TEST(BudgetCli, NeverWorseThanAPlainFitAndFindsTheLargestSizeThatFits) {
 
   // A budget above the largest rung the tile allows (M = 30; M = 100 is refused): the sizes
   // above it are searched too, up to the largest M whose file fits or the tile supports.
-  r = run(
-      fmt::format("fit {}/btf --budget {} --iterations 2 -o {}/e.btfgmm", d, budget * 5 / 4, d));
+  r = run(fmt::format("fit {}/btf --budget {} --iterations 2 --exhaustive -o {}/e.btfgmm", d,
+                      budget * 5 / 4, d));
   ASSERT_EQ(r.status, 0) << r.err;
   const auto [largest, over] = largest_fit_and_least_over(candidates(r.err), "gm");
   EXPECT_GT(largest, 30u) << r.err;
   const bool next_refused =
       r.err.find(fmt::format("skipped  gm components {},", largest + 1)) != std::string::npos;
   EXPECT_TRUE(over == largest + 1 || next_refused) << r.err;
+  fs::remove_all(dir);
+}
+
+// The best PSNR of `method`'s candidates that fit (0 if none).
+double best_that_fits(const std::vector<Row>& rows, const std::string& method) {
+  double best = 0.0;
+  for (const Row& row : rows)
+    if (row.method == method && row.mark != "over the budget")
+      best = std::max(best, std::stod(row.psnr));
+  return best;
+}
+
+// The quick search (the default): the mixture's size predicted from probes (short fits whose
+// files are counted, not measured), one size fitted in full (or two, when the first is over by
+// more than coarser steps save), its file within the budget, and its PSNR near that of the
+// exhaustive search, which fits every size it tries in full.
+TEST(BudgetCli, QuickSearchFitsOneMixtureNearTheExhaustiveChoice) {
+  const fs::path dir =
+      fs::temp_directory_path() / ("btfgmm_budget_quick_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  const std::string d = dir.string();
+  test::CliRun r =
+      run("generate --material corduroy --size 12 --seed 4 --lights rings:0/1,30/5,60/6 "
+          "--views rings:0/1,45/4 -o " +
+          d + "/btf");
+  ASSERT_EQ(r.status, 0) << r.err;
+  // Between the mixture's rungs M = 30 and 100 (about 2,650 and 4,700 bytes here), where the
+  // pixel-wise factor methods are near it; the refinement as by default (it ends by its rule).
+  r = run("fit " + d + "/btf --budget 3500 -o " + d + "/quick.btfgmm");
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_NE(r.err.find("gm       quick:"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("probe    gm components"), std::string::npos) << r.err;
+  const std::vector<Row> quick = candidates(r.err);
+  std::size_t mixtures = 0;
+  const Row* quick_choice = nullptr;
+  for (const Row& row : quick) {
+    mixtures += row.method == "gm";
+    if (row.mark == "chosen") quick_choice = &row;
+  }
+  EXPECT_GE(mixtures, 1u) << r.err;
+  EXPECT_LE(mixtures, 3u) << r.err;  // a refit, and one stored with coarser steps, at most
+  ASSERT_NE(quick_choice, nullptr) << r.err;
+  EXPECT_LE(fs::file_size(d + "/quick.btfgmm"), 3500u);
+  EXPECT_EQ(fs::file_size(d + "/quick.btfgmm"), quick_choice->bytes);
+
+  r = run("fit " + d + "/btf --budget 3500 --exhaustive -o " + d + "/exhaustive.btfgmm");
+  ASSERT_EQ(r.status, 0) << r.err;
+  const std::vector<Row> exhaustive = candidates(r.err);
+  const Row* exhaustive_choice = nullptr;
+  for (const Row& row : exhaustive)
+    if (row.mark == "chosen") exhaustive_choice = &row;
+  ASSERT_NE(exhaustive_choice, nullptr) << r.err;
+  EXPECT_GT(exhaustive.size(), quick.size()) << r.err;
+  EXPECT_GE(std::stod(quick_choice->psnr), std::stod(exhaustive_choice->psnr) - 0.5);
+  // The mixture's own best within the budget: the quick search's one fit against the best of
+  // the exhaustive search's (every rung and every size between fitted in full).
+  const double quick_mixture = best_that_fits(quick, "gm");
+  const double exhaustive_mixture = best_that_fits(exhaustive, "gm");
+  EXPECT_GT(exhaustive_mixture, 0.0) << r.err;
+  EXPECT_GE(quick_mixture, exhaustive_mixture - 0.3) << r.err;
   fs::remove_all(dir);
 }
 

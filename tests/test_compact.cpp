@@ -10,6 +10,8 @@
 #include <fstream>
 #include <random>
 
+#include "btfgmm/methods/gaussian_mixture.hpp"
+#include "btfgmm/methods/registry.hpp"
 #include "btfgmm/model/em.hpp"
 #include "btfgmm/model/fit.hpp"
 #include "btfgmm/model/model.hpp"
@@ -104,6 +106,49 @@ TEST(Compact, ParametersReadBackWithinTheStatedSteps) {
   EXPECT_EQ(rounded.mixture.var, r.mixture.var);
   EXPECT_EQ(rounded.mean_brdf, r.mean_brdf);
   EXPECT_EQ(serialize_model(r), serialize_model(m));  // the codes are the same again
+}
+
+// A mixture stored with steps `factor` times as coarse (fit --budget's way to bring a file
+// within its budget): a smaller file at every factor, each parameter read back within half the
+// coarser step of the one fitted; a factor below 1 and another method's model are refused.
+TEST(Compact, CoarserStepsGiveSmallerFilesWithinTheCoarserSteps) {
+  BtfModel m = small_fit(24);
+  m.precision = Precision::kCompact;
+  const GaussianMixture fitted(m);
+  std::uint64_t bytes_before = representation_file_bytes(fitted).size();
+  for (const double factor : {1.5, 2.0, 4.0}) {
+    const std::unique_ptr<Representation> coarse = coarsened_mixture(fitted, factor);
+    const std::vector<std::uint8_t> file = representation_file_bytes(*coarse);
+    EXPECT_LT(file.size(), bytes_before) << factor;
+    bytes_before = file.size();
+    const std::unique_ptr<Representation> back = read_representation(file, "coarse");
+    const auto* read = dynamic_cast<const GaussianMixture*>(back.get());
+    ASSERT_NE(read, nullptr);
+    const BtfModel& r = read->model();
+    const CompactSteps s;
+    EXPECT_EQ(r.compact_steps.colour_mean, s.colour_mean * factor);
+    EXPECT_EQ(r.compact_steps.mean_brdf, s.mean_brdf);
+    ASSERT_EQ(r.mixture.size(), m.mixture.size());
+    for (std::size_t k = 0; k < m.mixture.size(); ++k) {
+      EXPECT_LE(std::abs(std::log(r.mixture.weight[k] / m.mixture.weight[k])),
+                s.log_weight * factor * (1 + 1e-9));
+      for (int n = 0; n < kVariables; ++n) {
+        const double sd = std::sqrt(r.mixture.var[k][n]);
+        EXPECT_LE(std::abs(std::log(sd / std::sqrt(m.mixture.var[k][n]))),
+                  s.log_sigma * factor / 2 + 1e-12);
+        const double period = n < 2 ? 8.0 : 0.0;
+        double d = r.mixture.mean[k][n] - m.mixture.mean[k][n];
+        if (period > 0) d = wrapped(d, period);
+        const double bound = (n < kInputs ? sd * s.input_mean : s.colour_mean) * factor / 2;
+        EXPECT_LE(std::abs(d), bound * (1 + 1e-9)) << factor << " " << k << " " << n;
+      }
+    }
+  }
+  EXPECT_THROW(coarsened_mixture(fitted, 0.5), Error);
+  FitOptions pca;
+  pca.components = 2;
+  const std::unique_ptr<Representation> other = find_method("pca-btf").fit(knit_tile(8, 5), pca);
+  EXPECT_THROW(coarsened_mixture(*other, 2.0), Error);
 }
 
 // The largest difference between two models' predictions at the queries `q`, levels.

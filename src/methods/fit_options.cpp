@@ -51,6 +51,7 @@ constexpr FitParameter kCommonParameters[] = {
     {.field = "overwrite",
      .type = T::kFlag,
      .routes = FitRoute::kNew | FitRoute::kContinue | FitRoute::kBudget},
+    {.field = "exhaustive", .type = T::kFlag, .routes = unsigned(FitRoute::kBudget)},
 };
 
 std::atomic<std::uint64_t> g_checks{0};

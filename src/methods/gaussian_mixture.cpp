@@ -3,6 +3,10 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
 #include "btfgmm/core/error.hpp"
 #include "btfgmm/core/text.hpp"
 #include "btfgmm/methods/fit_options.hpp"
@@ -10,6 +14,7 @@
 #include "btfgmm/model/fit.hpp"
 #include "btfgmm/model/model_file.hpp"
 #include "btfgmm/model/predict.hpp"
+#include "btfgmm/model/refine.hpp"
 
 namespace btfgmm {
 
@@ -101,16 +106,81 @@ std::unique_ptr<Representation> fit_gaussian_mixture(const Btf& tile, const FitO
   FitConfig config = request.config;
   config.em.stop = s.stop;
   EmCallback progress;
-  if (s.progress)
+  FitObserver watch;
+  if (s.progress) {
     progress = [&s](const EmProgress& p) {
       s.progress(double(p.iteration) / double(p.max_iterations), "EM");
     };
-  BtfModel model = fit_model(tile, config, progress);
+    watch.refinement = [&s](const GradientProgress& p) {
+      s.progress(p.fraction, p.colour_refit ? "refinement, colour refit" : "refinement");
+    };
+  }
+  BtfModel model = fit_model(tile, config, progress, nullptr, {}, nullptr, &watch);
   // Stopped in EM (no model) or in the refinement (a model of fewer steps): stopped either way.
   if (model.mixture.size() == 0 || (s.stop && s.stop->load()))
     throw Error(Error::Kind::kArgument, "the Gaussian mixture's fit was stopped");
   model.precision = request.precision;
   return std::make_unique<GaussianMixture>(std::move(model));
+}
+
+namespace {
+
+const GaussianMixture& mixture_of(const Representation& model, std::string_view what) {
+  const auto* mixture = dynamic_cast<const GaussianMixture*>(&model);
+  if (!mixture)
+    throw Error(Error::Kind::kArgument,
+                fmt::format("a {} model cannot be stored {}: only a Gaussian mixture (gm); give "
+                            "one",
+                            model.method(), what));
+  return *mixture;
+}
+
+}  // namespace
+
+FitOptions mixture_byte_probe(const FitOptions& s) {
+  FitOptions probe = s;
+  probe.objective = "likelihood";
+  probe.iterations = kProbeIterations;
+  probe.epsilon.reset();
+  probe.refine_steps = 0;
+  probe.refine_seconds = 0.0;
+  probe.refine_epochs = 0;
+  return probe;
+}
+
+FitOptions mixture_budget_choice(FitOptions s, std::span<const std::string_view> given) {
+  if (std::find(given.begin(), given.end(), "iterations") == given.end())
+    s.iterations = kBudgetIterations;
+  return s;
+}
+
+std::size_t mixture_most_components(const ModelFrame& frame, const FitOptions& s) {
+  if (mixture_fit_request(s, "", "").config.objective != FitObjective::kPrediction)
+    return std::numeric_limits<std::size_t>::max();
+  return supported_components(frame.pixels() * frame.lights.size() * frame.views.size());
+}
+
+std::unique_ptr<Representation> mixture_without_components(const Representation& model) {
+  BtfModel m = mixture_of(model, "without its components").model();
+  m.mixture = ProductMixture{};
+  auto out = std::make_unique<GaussianMixture>(std::move(m));
+  out->set_provenance(model.provenance());
+  return out;
+}
+
+std::unique_ptr<Representation> coarsened_mixture(const Representation& model, double factor) {
+  if (!(factor >= 1.0) || !std::isfinite(factor))
+    throw Error(Error::Kind::kArgument,
+                fmt::format("a mixture's steps can be made coarser by a factor of 1 or more, "
+                            "not {}; give such a factor",
+                            factor));
+  BtfModel m = mixture_of(model, "with coarser steps").model();
+  for (double* step : {&m.compact_steps.log_weight, &m.compact_steps.log_sigma,
+                       &m.compact_steps.input_mean, &m.compact_steps.colour_mean})
+    *step *= factor;
+  auto out = std::make_unique<GaussianMixture>(std::move(m));
+  out->set_provenance(model.provenance());
+  return out;
 }
 
 }  // namespace btfgmm

@@ -233,6 +233,21 @@ constexpr FitParameter kTextureModelParameters[] = {
      .help = "the range map's storage (its few model parameters are always f32)"},
 };
 
+// The row of one of the probabilistic texture models (Haindl, Filip 2007), which share their
+// sizes, parameters and ladder, and synthesise new texture.
+MethodInfo texture_model_row(std::string_view name, std::string_view title,
+                             decltype(MethodInfo::fit) fit, decltype(MethodInfo::read) read) {
+  return {.name = name,
+          .title = title,
+          .citation = "Haindl, Filip 2007",
+          .sizes = "`clusters` c (subspaces, 15), `levels` K (pyramid, 3)",
+          .parameters = kTextureModelParameters,
+          .fit = std::move(fit),
+          .read = std::move(read),
+          .ladder = texture_model_ladder,
+          .synthesises = true};
+}
+
 // One row a method (docs/METHODS.md); `sizes` names the options that set its size.
 const std::vector<MethodInfo>& table() {
   static const std::vector<MethodInfo> methods = {
@@ -243,7 +258,17 @@ const std::vector<MethodInfo>& table() {
        .parameters = kMixtureParameters,
        .fit = fit_gaussian_mixture,
        .read = read_gaussian_mixture,
-       .ladder = mixture_ladder},
+       .ladder = mixture_ladder,
+       .quick_search = {.probe = mixture_byte_probe,
+                        .bytes_ratio = kProbeBytesRatio,
+                        .without_size = mixture_without_components,
+                        .most_size = mixture_most_components,
+                        .choice = mixture_budget_choice,
+                        .summary = fmt::format(
+                            "its size predicted from the files of {} EM iterations, the choice "
+                            "fitted with at most {} (then refined for the prediction)",
+                            kProbeIterations, kBudgetIterations)},
+       .coarsened = coarsened_mixture},
       {.name = "pca-btf",
        .title = "PCA BTF: one PCA of all images",
        .citation = "Koudelka, Magda, Belhumeur, Kriegman 2003",
@@ -284,30 +309,17 @@ const std::vector<MethodInfo>& table() {
        .fit = fit_plm_rf,
        .read = read_plm_rf,
        .ladder = plm_rf_ladder},
-      {.name = "3d-car",
-       .title = "3D CAR: BTF subspaces, a causal autoregressive model of RGB each, a range map",
-       .citation = "Haindl, Filip 2007",
-       .sizes = "`clusters` c (subspaces, 15), `levels` K (pyramid, 3)",
-       .parameters = kTextureModelParameters,
-       .fit = fit_car3d,
-       .read = read_car3d,
-       .ladder = texture_model_ladder},
-      {.name = "2d-car",
-       .title = "2D CAR: BTF subspaces, a causal autoregressive model per colour band, a range map",
-       .citation = "Haindl, Filip 2007",
-       .sizes = "`clusters` c (subspaces, 15), `levels` K (pyramid, 3)",
-       .parameters = kTextureModelParameters,
-       .fit = fit_car2d,
-       .read = read_car2d,
-       .ladder = texture_model_ladder},
-      {.name = "gmrf",
-       .title = "GMRF: BTF subspaces, a Gaussian Markov random field per colour band, a range map",
-       .citation = "Haindl, Filip 2007",
-       .sizes = "`clusters` c (subspaces, 15), `levels` K (pyramid, 3)",
-       .parameters = kTextureModelParameters,
-       .fit = fit_gmrf,
-       .read = read_gmrf,
-       .ladder = texture_model_ladder},
+      texture_model_row(
+          "3d-car", "3D CAR: BTF subspaces, a causal autoregressive model of RGB each, a range map",
+          fit_car3d, read_car3d),
+      texture_model_row(
+          "2d-car",
+          "2D CAR: BTF subspaces, a causal autoregressive model per colour band, a range map",
+          fit_car2d, read_car2d),
+      texture_model_row(
+          "gmrf",
+          "GMRF: BTF subspaces, a Gaussian Markov random field per colour band, a range map",
+          fit_gmrf, read_gmrf),
   };
   return methods;
 }

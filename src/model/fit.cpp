@@ -353,11 +353,11 @@ FitConfig mixture_config(std::size_t components, int iterations, std::uint64_t s
 }
 
 BtfModel fit_model(const Btf& btf, const FitConfig& config, const EmCallback& progress,
-                   const FitState* resume, const EmStateCallback& after_iteration,
-                   FitState* state) {
+                   const FitState* resume, const EmStateCallback& after_iteration, FitState* state,
+                   const FitObserver* watch) {
   const auto t0 = Clock::now();
   return fit_samples(make_sample_set(btf), tile_of(btf), config, progress, resume, after_iteration,
-                     state, t0);
+                     state, t0, watch);
 }
 
 FitRequest resume_request(const fs::path& path) {

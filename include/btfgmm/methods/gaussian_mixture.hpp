@@ -3,6 +3,8 @@
 #pragma once
 
 #include <memory>
+#include <span>
+#include <string_view>
 
 #include "btfgmm/methods/representation.hpp"
 #include "btfgmm/model/model.hpp"
@@ -40,5 +42,33 @@ class GaussianMixture final : public Representation {
 // fit_model (model/fit.hpp) with `s`: components M (default 600), iterations (default 40),
 // seed; the encoding kF16 stores the parameters as half floats, kQ8 is refused.
 std::unique_ptr<Representation> fit_gaussian_mixture(const Btf& tile, const FitOptions& s);
+
+// `fit --budget`'s quick search of the mixture's size (QuickSizeSearch, methods/registry.hpp):
+// a probe is EM's first kProbeIterations iterations alone (the likelihood objective), whose
+// file's components take about 1 / kProbeBytesRatio of the bytes of the same M's fitted as the
+// search fits its choice: at most kBudgetIterations EM iterations (unless `iterations` is given),
+// then the refinement for the prediction as by default. On generated knit 25 x 25 at M = 1998,
+// 6 EM iterations before the refinement gave 28.65 dB, 12 gave 27.70, and the default 40 gave
+// 26.50 at M = 1919, the same bytes (docs/BENCHMARKS.md). The search brings a file over the
+// budget within it by coarser steps (coarsened_mixture), so an error of a few percent in the
+// ratio costs no refit.
+inline constexpr int kProbeIterations = 1;
+inline constexpr double kProbeBytesRatio = 1.15;
+inline constexpr int kBudgetIterations = 6;
+FitOptions mixture_byte_probe(const FitOptions& s);
+FitOptions mixture_budget_choice(FitOptions s, std::span<const std::string_view> given);
+
+// The most components the fit of `s` takes on a tile of `frame`: for the prediction objective,
+// supported_components of its samples (model/refine.hpp); no bound for the likelihood.
+std::size_t mixture_most_components(const ModelFrame& frame, const FitOptions& s);
+
+// The mixture with no components (its mean BRDF, frame and provenance kept): its file holds
+// the bytes that do not grow with M. Throws Error(kArgument) for another method's model.
+std::unique_ptr<Representation> mixture_without_components(const Representation& model);
+
+// A copy of a mixture stored with the quantisation steps of its weights, deviations and means
+// (docs/FORMAT.md: s_w, s_sigma, s_mu, s_c) `factor` times as coarse; the mean BRDF's step is
+// kept. Throws Error(kArgument) for another method's model or a factor below 1.
+std::unique_ptr<Representation> coarsened_mixture(const Representation& model, double factor);
 
 }  // namespace btfgmm

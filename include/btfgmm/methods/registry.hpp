@@ -17,6 +17,27 @@
 
 namespace btfgmm {
 
+// `fit --budget`'s quick search of a method's size (measure/budget.hpp), for a method whose
+// fits take minutes: the size at the budget predicted from the files of short fits (probes),
+// and only that size fitted in full.
+struct QuickSizeSearch {
+  // A setting of the same size as `s` whose fit takes a small part of `s`'s time and whose
+  // file's bytes that grow with the size, times `bytes_ratio`, are about those of `s`'s file.
+  std::function<FitOptions(const FitOptions& s)> probe;
+  double bytes_ratio = 1.0;
+  // A model as it would be of size 0: its file holds the bytes that do not grow with the size
+  // (a header, the provenance, the mixture's mean BRDF).
+  std::function<std::unique_ptr<Representation>(const Representation& model)> without_size;
+  // The largest size the choice `s` takes on a tile of `frame`, where it takes fewer than its
+  // probe (the mixture's prediction objective: one component per 64 training samples).
+  std::function<std::size_t(const ModelFrame& frame, const FitOptions& s)> most_size;
+  // The setting the chosen size is fitted with: `s` with the search's own defaults where the
+  // request did not give the field (`given`).
+  std::function<FitOptions(FitOptions s, std::span<const std::string_view> given)> choice;
+  // What the two do, as the search's plan states it.
+  std::string summary;
+};
+
 struct MethodInfo {
   std::string_view name;      // as `fit --method` takes it
   std::string_view title;     // "PCA BTF: one PCA of all images"
@@ -37,6 +58,18 @@ struct MethodInfo {
   // Settings that span compression ratios from about 1:5 to 1:500 on a tile of this frame
   // (as Table 2 counts them), smallest model first; `sweep` fits each.
   std::function<std::vector<FitOptions>(const ModelFrame& frame)> ladder;
+  // Its models synthesise new texture (Representation::synthesises): `fit --budget` leaves it
+  // out without fitting it, since no pixel-wise PSNR measures it.
+  bool synthesises = false;
+  // How `fit --budget` finds its size at a budget without fitting each size tried in full
+  // (measure/budget.hpp); none: each size is fitted as `sweep` fits it.
+  QuickSizeSearch quick_search = {};
+  // A copy of `model` stored with every quantisation step `factor` (> 1) times as coarse: a
+  // smaller file, each value within half the coarser step; none where the method's storage
+  // states no steps. `fit --budget` takes it to bring a file a few percent over the budget
+  // within it.
+  std::function<std::unique_ptr<Representation>(const Representation& model, double factor)>
+      coarsened = {};
 };
 
 // The encoding of the file `fit` writes for `method` when no precision is asked: the default

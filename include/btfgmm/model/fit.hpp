@@ -58,9 +58,11 @@ FitConfig mixture_config(std::size_t components, int iterations, std::uint64_t s
 // the lowest error met. The
 // model's provenance holds the fit's log (its EM iterations, this run's time); the data's
 // fingerprint, the settings and `recorded` are the caller's to set (run_fit, fit_and_record).
+// `watch`, where given, is told the plan and the refinement's progress (FitObserver).
+struct FitObserver;
 BtfModel fit_model(const Btf& btf, const FitConfig& config, const EmCallback& progress = {},
                    const FitState* resume = nullptr, const EmStateCallback& after_iteration = {},
-                   FitState* state = nullptr);
+                   FitState* state = nullptr, const FitObserver* watch = nullptr);
 
 // ---- The fit job: from a BTF on disk to a model file, interruptible and resumable --------
 
