@@ -188,7 +188,10 @@ void print_plan(const btfgmm::FitPlan& p) {
   const double em = p.em_seconds;
   std::string refinement;
   if (p.refines) {
-    refinement = fmt::format("; then the refinement for the prediction, {}, {}",
+    refinement = fmt::format("; then the refinement for the prediction{}, {}, {}",
+                             p.device == "cpu" ? ""
+                                               : " (its steps and the colour refits' sums on "
+                                                 "the GPU)",
                              refinement_bounds(p), refinement_time(p.refinement));
     if (p.refinement.colour_refit_seconds > std::max(em, 10.0))
       refinement += fmt::format(

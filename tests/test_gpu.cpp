@@ -3,7 +3,10 @@
 // exists the tests skip, except in CI (CI=true), where they fail: the kernels must run there.
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <array>
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
 #include <string>
 #include <vector>
@@ -13,7 +16,9 @@
 #include "btfgmm/model/decode.hpp"
 #include "btfgmm/model/em.hpp"
 #include "btfgmm/model/fit.hpp"
+#include "btfgmm/model/refine.hpp"
 #include "btfgmm/model/samples.hpp"
+#include "model/refine_internal.hpp"
 #include "test_util.hpp"
 
 namespace btfgmm {
@@ -175,15 +180,125 @@ TEST(Gpu, EmOnTheGpuDecodesAsTheCpusWithinATenthOfALevel) {
   EXPECT_LT(std::abs(r.gpu_rmse / r.cpu_rmse - 1.0), 1e-4);
 }
 
-// The default fit: the refinement's Adam steps start from EM's parameters a rounding apart and
-// carry the difference on (0.22 level at most on this tile); the error on the data is the
+// The default fit, EM and the refinement's Adam steps on the device: the steps start from
+// EM's parameters a rounding apart and carry the difference on; the error on the data is the
 // CPU's to 1 %.
 TEST(Gpu, TheDefaultFitMeasuresAsTheCpusWithinOnePercent) {
   REQUIRE_DEVICE(device);
   const DecodedPair r = fit_both(true);
+  std::printf("RMSE %.4f on the device, %.4f on the CPU; decoded within %.3f level\n", r.gpu_rmse,
+              r.cpu_rmse, r.worst);
   EXPECT_LT(std::abs(r.gpu_rmse / r.cpu_rmse - 1.0), 0.01)
       << r.gpu_rmse << " against " << r.cpu_rmse;
   EXPECT_LE(r.worst, 0.5);
+}
+
+// M components from seed 3 after `iterations` EM iterations on the CPU.
+ProductMixture em_on_the_cpu(const SampleSet& s, std::size_t m, int iterations) {
+  ProductMixture mix = initial_mixture(s, m, 3);
+  EmConfig em;
+  em.max_iterations = iterations;
+  fit_em(s, mix, em);
+  return mix;
+}
+
+// The largest difference of each kind of derivative (a, mu, s) of `f` from `d`'s, against the
+// largest of its kind in `d`.
+std::array<double, 3> gradient_difference(const PredictionGradient& f,
+                                          const PredictionGradient& d) {
+  std::array<double, 3> top{0, 0, 0}, worst{0, 0, 0};
+  for (std::size_t k = 0; k < d.log_weight.size(); ++k) {
+    top[0] = std::max(top[0], std::abs(d.log_weight[k]));
+    for (double g : d.mean[k]) top[1] = std::max(top[1], std::abs(g));
+    for (double g : d.log_var[k]) top[2] = std::max(top[2], std::abs(g));
+  }
+  for (std::size_t k = 0; k < d.log_weight.size(); ++k) {
+    worst[0] = std::max(worst[0], std::abs(f.log_weight[k] - d.log_weight[k]) / top[0]);
+    for (std::size_t n = 0; n < d.mean[k].size(); ++n)
+      worst[1] = std::max(worst[1], std::abs(f.mean[k][n] - d.mean[k][n]) / top[1]);
+    for (std::size_t n = 0; n < d.log_var[k].size(); ++n)
+      worst[2] = std::max(worst[2], std::abs(f.log_var[k][n] - d.log_var[k][n]) / top[2]);
+  }
+  return worst;
+}
+
+// The refinement's pass on the device (model/refine_gpu.hpp) beside the CPU's: against the
+// double pass that weighs every component (prediction_gradient) over every sample and a
+// stride, and against the CPU's float pass over a minibatch and the held-out samples; the
+// error to 1e-5 relative, every derivative within 1e-4 of the largest of its kind. 70 views:
+// more than the statistics' shader holds in shared memory at once (kSlotTile, 64).
+TEST(Gpu, TheRefinementsPassGivesTheCpusErrorAndGradient) {
+  REQUIRE_DEVICE(device);
+  const SampleSet s = make_sample_set(test::generated_tile("knit", 6, 1, "spiral:13", "spiral:70"));
+  const ProductMixture mix = em_on_the_cpu(s, 24, 4);
+  const auto gpu = detail::make_prediction_pass(s, mix.size(), 2, device.get());
+  const auto cpu = detail::make_prediction_pass(s, mix.size(), 2, nullptr);
+  using Part = detail::Selection::Part;
+  for (std::size_t stride : {std::size_t(1), std::size_t(7)}) {
+    const PredictionGradient d = prediction_gradient(s, mix, 2, stride, PassPrecision::kDouble);
+    const PredictionGradient g = (*gpu)(mix, {stride, 0, Part::kAll});
+    EXPECT_EQ(g.samples, d.samples);
+    EXPECT_LT(relative(g.error, d.error), 1e-5) << "stride " << stride;
+    const std::array<double, 3> w = gradient_difference(g, d);
+    for (double x : w) EXPECT_LT(x, 1e-4) << "stride " << stride;
+    std::printf(
+        "stride %zu: the device against the double pass: error %.1e, %.1e %.1e %.1e "
+        "(a, mu, s)\n",
+        stride, relative(g.error, d.error), w[0], w[1], w[2]);
+  }
+  for (const detail::Selection part :
+       {detail::Selection{5, 2, Part::kTraining}, detail::Selection{1, 0, Part::kValidation}}) {
+    const PredictionGradient c = (*cpu)(mix, part), g = (*gpu)(mix, part);
+    EXPECT_EQ(g.samples, c.samples);
+    EXPECT_GT(g.samples, 0u);
+    EXPECT_LT(relative(g.error, c.error), 1e-5);
+    for (double w : gradient_difference(g, c)) EXPECT_LT(w, 1e-4);
+    const PredictionGradient e = (*gpu)(mix, part, false);
+    EXPECT_EQ(e.error, g.error);
+    EXPECT_TRUE(e.log_weight.empty());
+  }
+}
+
+// The normal equations of the colour means' refit on the device (refine_normal.comp) beside
+// the CPU's (colour_normal_equations): the same samples, G and b within 1e-5 of their largest
+// entry, the energy to 1e-9 relative; more components than one 64 x 64 block of G.
+TEST(Gpu, TheColourRefitsNormalEquationsAreTheCpus) {
+  REQUIRE_DEVICE(device);
+  const SampleSet s = make_sample_set(test::generated_tile("knit", 6, 1, "spiral:13", "spiral:21"));
+  const ProductMixture mix = em_on_the_cpu(s, 90, 3);
+  const auto gpu = detail::make_prediction_pass(s, mix.size(), 2, device.get());
+  for (std::size_t stride : {std::size_t(1), std::size_t(3)}) {
+    const ColourNormalEquations c = colour_normal_equations(s, mix, 2, stride, true);
+    const ColourNormalEquations g = gpu->normal_equations(mix, stride, nullptr, {});
+    ASSERT_EQ(g.components, c.components);
+    EXPECT_EQ(g.samples, c.samples);
+    double top_gram = 0, top_rhs = 0, worst_gram = 0, worst_rhs = 0;
+    for (double x : c.gram) top_gram = std::max(top_gram, std::abs(x));
+    for (double x : c.rhs) top_rhs = std::max(top_rhs, std::abs(x));
+    for (std::size_t i = 0; i < c.gram.size(); ++i)
+      worst_gram = std::max(worst_gram, std::abs(g.gram[i] - c.gram[i]) / top_gram);
+    for (std::size_t i = 0; i < c.rhs.size(); ++i)
+      worst_rhs = std::max(worst_rhs, std::abs(g.rhs[i] - c.rhs[i]) / top_rhs);
+    EXPECT_LT(worst_gram, 1e-5) << "stride " << stride;
+    EXPECT_LT(worst_rhs, 1e-5) << "stride " << stride;
+    for (std::size_t ch = 0; ch < 3; ++ch) EXPECT_LT(relative(g.energy[ch], c.energy[ch]), 1e-9);
+    std::printf("stride %zu: G within %.1e, b within %.1e of their largest\n", stride, worst_gram,
+                worst_rhs);
+  }
+}
+
+// The default fit on the device (EM and the refinement's steps there) twice: the same model.
+TEST(Gpu, TheRefinementOnTheDeviceIsTheSameRunAfterRun) {
+  REQUIRE_DEVICE(device);
+  const Btf btf = test::generated_tile("corduroy", 8, 1, "spiral:13", "spiral:11");
+  auto fit = [&] {
+    FitConfig c = mixture_config(20, 4, 1, 2);
+    c.refinement_epochs = 2;
+    c.device = DeviceChoice::kGpu;
+    return decode(fit_model(btf, c), btf.lights(), btf.views(), btf.width(), btf.height());
+  };
+  const Btf a = fit(), b = fit();
+  EXPECT_TRUE(std::equal(a.data().begin(), a.data().end(), b.data().begin(), b.data().end()));
 }
 
 TEST(Gpu, TheSameDeviceGivesTheSameModelRunAfterRun) {

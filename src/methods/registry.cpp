@@ -158,8 +158,9 @@ constexpr FitParameter kMixtureParameters[] = {
      .member = &FitOptions::device,
      .choices = "auto cpu gpu",
      .default_text = "auto",
-     .routes = kMixtureRoutes,
-     .help = "where EM runs: auto (a GPU where one exists, else the CPU), cpu, or gpu (a GPU, "
+     .routes = kAnyRoute,
+     .help = "where EM and the refinement's steps run: auto (a GPU where one exists, else the "
+             "CPU), cpu, or gpu (a GPU, "
              "else a software Vulkan such as lavapipe; docs/GPU.md)"},
     {.field = "precision",
      .type = T::kWord,

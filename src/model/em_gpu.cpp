@@ -16,7 +16,9 @@
 
 #include "btfgmm/core/error.hpp"
 #include "btfgmm/core/text.hpp"
+#include "gpu/device_check.hpp"
 #include "model/em_light_statistics.hpp"
+#include "model/gpu_passes.hpp"
 
 namespace btfgmm::detail {
 namespace {
@@ -24,13 +26,6 @@ namespace {
 constexpr std::uint32_t kNormaliserGroup = 256;  // em_normaliser.comp's local size
 constexpr std::uint32_t kColumnsPerGroup = 64;   // em_statistics.comp's columns a workgroup
 constexpr std::uint32_t kRows = 15;              // em_statistics.comp's sums per column
-constexpr std::uint32_t kSumGroup = 256;         // em_light_sums.comp's local size
-constexpr std::uint32_t kMaxGroupsX = 65535;     // Vulkan's least maxComputeWorkGroupCount
-
-// A light's pixels are cut into chunks as the CPU's pass cuts them (em.cpp, chunk_count).
-std::uint32_t gpu_chunks(std::size_t pixels) {
-  return std::uint32_t(std::clamp<std::size_t>((pixels + 255) / 256, 1, 16));
-}
 
 struct NormaliserPush {
   std::uint32_t stride, components, pixels, views, held, first_light, groups_per_light;
@@ -38,14 +33,6 @@ struct NormaliserPush {
 struct StatisticsPush {
   std::uint32_t stride, components, pixels, views, held, first_light, width, chunks;
 };
-struct LightSumsPush {
-  std::uint32_t per_chunk, chunks, held;
-};
-
-template <typename T>
-std::span<const std::byte> bytes_of(const T& value) {
-  return std::as_bytes(std::span(&value, 1));
-}
 
 }  // namespace
 
@@ -84,20 +71,12 @@ double GpuEPass::device_bytes(const SampleSet& s, std::size_t components) {
 
 GpuEPass::GpuEPass(ComputeDevice& device, const SampleSet& s)
     : state_(std::make_unique<State>(device, s)) {
-  const DeviceInfo& info = device.info();
-  const double need = device_bytes(s, 16);
-  if (need > 0.9 * double(info.memory_bytes) ||
-      16.0 * double(s.held_size()) > double(info.max_buffer_bytes))
-    throw Error(Error::Kind::kArgument,
-                "the GPU " + info.name + " cannot hold the fit's " + std::to_string(s.held_size()) +
-                    " samples: they take " + human_bytes(need) + " of its " +
-                    human_bytes(double(info.memory_bytes)) +
-                    " (its largest buffer: " + human_bytes(double(info.max_buffer_bytes)) +
-                    "); fit a smaller tile, or on the CPU (" + option_name("device") + " cpu)");
+  check_device_holds(device.info(), device_bytes(s, 16), 16.0 * double(s.held_size()),
+                     "the fit's " + std::to_string(s.held_size()) + " samples");
   State& g = *state_;
   g.normaliser = device.kernel("em_normaliser.spv", 7, sizeof(NormaliserPush));
   g.statistics = device.kernel("em_statistics.spv", 10, sizeof(StatisticsPush));
-  g.light_sums = device.kernel("em_light_sums.spv", 2, sizeof(LightSumsPush));
+  g.light_sums = chunk_sums_kernel(device);
   g.upload_samples();
 }
 
@@ -187,10 +166,7 @@ std::vector<double> GpuEPass::State::light_terms() {
 
 // Each held light's 15 rows of st sums: the chunks' (em_statistics), added in chunk order.
 std::vector<double> GpuEPass::State::column_sums(std::size_t st, std::uint32_t chunks) {
-  const LightSumsPush push{std::uint32_t(kRows * st), chunks, std::uint32_t(s.held_lights())};
-  GpuBuffer* bound[] = {chunk_sums.get(), sums.get()};
-  device.run(*light_sums, bound, bytes_of(push),
-             std::uint32_t((kRows * st + kSumGroup - 1) / kSumGroup), push.held);
+  sum_chunks(device, *light_sums, *chunk_sums, *sums, kRows * st, chunks, s.held_lights());
   std::vector<double> out(s.held_lights() * kRows * st);
   device.download_values<double>(*sums, out);
   return out;

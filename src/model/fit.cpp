@@ -288,6 +288,7 @@ FitPlan plan_fit(const SampleSet& samples, const FitConfig& config, const Produc
   if (!plan.refines) return plan;
   GradientConfig gradient;
   set_refinement_bounds(config, gradient);
+  gradient.device = device;
   plan.refinement_steps = gradient.steps;
   plan.refinement_max_steps = gradient.steps > 0 ? 0 : gradient.max_steps;
   plan.refinement_epochs = config.refinement_epochs;
@@ -321,6 +322,7 @@ BtfModel fit_samples(const SampleSet& samples, const FitTile& tile, const FitCon
     GradientConfig gradient;
     set_refinement_bounds(config, gradient);
     gradient.seed = config.seed;
+    gradient.device = em_config.device;
     if (watch) {
       gradient.progress = watch->refinement;
       gradient.planned = watch->refinement_planned;

@@ -204,8 +204,9 @@ namespace {
 // The colour means of `mix` refitted on the training samples of the refit's subsample, kept
 // where they lower the validation error `error`; returns the validation error of `mix`. Set
 // `gradient.stop` ends it without a refit; `gradient.progress` is told how far the sums are.
-double refit_where_it_validates(const SampleSet& samples, ProductMixture& mix, int threads,
-                                double error, const GradientConfig& gradient) {
+double refit_where_it_validates(const SampleSet& samples, ProductMixture& mix,
+                                detail::PredictionPass& pass, double error,
+                                const GradientConfig& gradient) {
   const std::size_t stride = detail::subsample_stride(samples.size(), kColourRefitSamples);
   ProductMixture trial = mix;
   const auto t0 = Clock::now();
@@ -219,15 +220,38 @@ double refit_where_it_validates(const SampleSet& samples, ProductMixture& mix, i
                          .max_epochs = gradient.max_epochs,
                          .colour_refit = true});
     };
-  const ColourNormalEquations eq =
-      colour_normal_equations(samples, trial, threads, stride, true, gradient.stop, progress);
+  const ColourNormalEquations eq = pass.normal_equations(trial, stride, gradient.stop, progress);
   if (gradient.stop && gradient.stop->load()) return error;
   refit_colour_means(eq, trial);
   const detail::Selection validation{1, 0, detail::Selection::Part::kValidation};
-  const double after = detail::selection_error(samples, trial, threads, validation).first;
+  const double after = detail::selection_error(pass, trial, validation).first;
   if (!(after < error)) return error;
   mix = std::move(trial);
   return after;
+}
+
+}  // namespace
+
+namespace {
+
+// The seconds of the closed-form solve of a colour refit: timed on the first min(M, 1000)
+// components of `part`, scaled as M^3.
+double time_solve(const ColourNormalEquations& part, const ProductMixture& mix) {
+  constexpr std::size_t kSolved = 1000;
+  const std::size_t m = std::min(mix.size(), kSolved);
+  ColourNormalEquations eq;
+  eq.components = m;
+  eq.gram.resize(m * m);
+  eq.rhs.assign(part.rhs.begin(), part.rhs.begin() + std::ptrdiff_t(m * 3));
+  eq.energy = part.energy;
+  for (std::size_t i = 0; i < m; ++i)
+    std::copy_n(part.gram.begin() + std::ptrdiff_t(i * mix.size()), m,
+                eq.gram.begin() + std::ptrdiff_t(i * m));
+  ProductMixture head = mix;
+  head.resize(m);
+  const auto at = Clock::now();
+  refit_colour_means(eq, head);
+  return seconds_since(at) * std::pow(double(mix.size()) / double(m), 3.0);
 }
 
 }  // namespace
@@ -266,23 +290,17 @@ double time_colour_refit(const SampleSet& samples, const ProductMixture& mix, in
   const double per_run = std::max(0.0, t_part - per_sample * n_part);
   const double taken =
       double(samples.size()) / double(stride) * (1.0 - 1.0 / double(kValidationEvery));
-  const double scaled = per_run + per_sample * taken;
-  constexpr std::size_t kSolved = 1000;
-  const std::size_t m = std::min(mix.size(), kSolved);
-  ColourNormalEquations eq;
-  eq.components = m;
-  eq.gram.resize(m * m);
-  eq.rhs.assign(part.rhs.begin(), part.rhs.begin() + std::ptrdiff_t(m * 3));
-  eq.energy = part.energy;
-  for (std::size_t i = 0; i < m; ++i)
-    std::copy_n(part.gram.begin() + std::ptrdiff_t(i * mix.size()), m,
-                eq.gram.begin() + std::ptrdiff_t(i * m));
-  ProductMixture head = mix;
-  head.resize(m);
-  at = Clock::now();
-  refit_colour_means(eq, head);
-  const double solve = seconds_since(at) * std::pow(double(mix.size()) / double(m), 3.0);
-  return scaled + solve;
+  return per_run + per_sample * taken + time_solve(part, mix);
+}
+
+// The seconds of one colour refit with its normal equations on a compute device: the sums
+// timed in full (a fraction of a second there), the solve as time_solve.
+double time_device_refit(const SampleSet& samples, const ProductMixture& mix,
+                         detail::PredictionPass& pass, const std::atomic<bool>* stop) {
+  const std::size_t stride = detail::subsample_stride(samples.size(), kColourRefitSamples);
+  const auto at = Clock::now();
+  const ColourNormalEquations eq = pass.normal_equations(mix, stride, stop, {});
+  return seconds_since(at) + time_solve(eq, mix);
 }
 
 }  // namespace
@@ -290,12 +308,15 @@ double time_colour_refit(const SampleSet& samples, const ProductMixture& mix, in
 RefinementEstimate estimate_refinement(const SampleSet& samples, const ProductMixture& mix,
                                        int threads, const GradientConfig& gradient) {
   RefinementEstimate e;
-  const double refit = time_colour_refit(samples, mix, threads, gradient.stop);
+  const auto pass =
+      detail::make_prediction_pass(samples, mix.size(), threads, gradient.device.get());
+  const double refit = gradient.device ? time_device_refit(samples, mix, *pass, gradient.stop)
+                                       : time_colour_refit(samples, mix, threads, gradient.stop);
   if (gradient.stop && gradient.stop->load()) return e;
   e.colour_refit_seconds = gradient.gradient ? 2.0 * refit : refit;
   e.seconds = e.colour_refit_seconds;
   if (!gradient.gradient) return e;
-  const detail::StepTimes t = detail::time_gradient_step(samples, mix, threads, gradient.batch);
+  const detail::StepTimes t = detail::time_gradient_step(samples, mix, *pass, gradient.batch);
   e.step_seconds = t.step;
   e.validation_seconds = t.validation;
   e.steps_per_epoch = t.batches;
@@ -317,16 +338,18 @@ PredictionRefinement refine_for_prediction(const SampleSet& samples, ProductMixt
   const auto t0 = std::chrono::steady_clock::now();
   PredictionRefinement out;
   const detail::Selection validation{1, 0, detail::Selection::Part::kValidation};
-  const auto [em_error, held_out] = detail::selection_error(samples, mix, threads, validation);
+  const auto pass =
+      detail::make_prediction_pass(samples, mix.size(), threads, gradient.device.get());
+  const auto [em_error, held_out] = detail::selection_error(*pass, mix, validation);
   out.samples = held_out;
   out.error_em = em_error;
-  out.error_colour = refit_where_it_validates(samples, mix, threads, em_error, gradient);
+  out.error_colour = refit_where_it_validates(samples, mix, *pass, em_error, gradient);
   out.stopped = gradient.stop && gradient.stop->load();
   out.error_final = out.error_colour;
   out.steps_planned = gradient.steps;
   if (gradient.gradient && !out.stopped) {
-    detail::gradient_epochs(samples, mix, threads, gradient, out);
-    out.error_final = refit_where_it_validates(samples, mix, threads, out.error_final, gradient);
+    detail::gradient_epochs(samples, mix, *pass, gradient, out);
+    out.error_final = refit_where_it_validates(samples, mix, *pass, out.error_final, gradient);
     out.stopped = out.stopped || (gradient.stop && gradient.stop->load());
   }
   out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();

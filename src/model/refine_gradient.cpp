@@ -20,6 +20,7 @@
 #include "core/fast_exp.hpp"
 #include "model/grid_weights.hpp"
 #include "model/mixture_internal.hpp"
+#include "model/refine_gpu.hpp"
 #include "model/refine_internal.hpp"
 #include "model/refine_pass.hpp"
 
@@ -330,8 +331,20 @@ namespace detail {
 
 std::pair<double, std::size_t> selection_error(const SampleSet& samples, const ProductMixture& mix,
                                                int threads, const Selection& selection) {
-  const PredictionGradient g = SparsePass(samples, mix.size(), threads)(mix, selection, false);
+  SparsePass pass(samples, mix.size(), threads);
+  return selection_error(pass, mix, selection);
+}
+
+std::pair<double, std::size_t> selection_error(PredictionPass& pass, const ProductMixture& mix,
+                                               const Selection& selection) {
+  const PredictionGradient g = pass(mix, selection, false);
   return {g.error, g.samples};
+}
+
+std::unique_ptr<PredictionPass> make_prediction_pass(const SampleSet& samples, std::size_t m,
+                                                     int threads, ComputeDevice* device) {
+  if (device) return std::make_unique<GpuPredictionPass>(*device, samples, m);
+  return std::make_unique<SparsePass>(samples, m, threads);
 }
 
 }  // namespace detail
@@ -464,7 +477,7 @@ void report(const GradientConfig& config, const Epochs& at, const Convergence& r
 
 // Validation after a step: the lowest error's mixture kept in `best`; the progress reported.
 // Returns whether the rule has converged.
-bool validate(detail::SparsePass& pass, const ProductMixture& mix, const GradientConfig& config,
+bool validate(detail::PredictionPass& pass, const ProductMixture& mix, const GradientConfig& config,
               const Epochs& at, Convergence& rule, ProductMixture& best,
               PredictionRefinement& out) {
   const detail::Selection validation{1, 0, detail::Selection::Part::kValidation};
@@ -499,13 +512,12 @@ bool steps_end(const SampleSet& samples, const GradientConfig& config, const Epo
 
 namespace detail {
 
-StepTimes time_gradient_step(const SampleSet& samples, const ProductMixture& mix, int threads,
-                             std::size_t batch) {
+StepTimes time_gradient_step(const SampleSet& samples, const ProductMixture& mix,
+                             PredictionPass& pass, std::size_t batch) {
   using Clock = std::chrono::steady_clock;
   StepTimes t;
   t.batches = minibatches(samples, batch);
   t.validate_every = std::max<std::size_t>(1, t.batches / 4);
-  SparsePass pass(samples, mix.size(), threads);
   // The second of two steps: the first starts the threads.
   t.step = std::numeric_limits<double>::infinity();
   for (std::size_t k = 0; k < std::min<std::size_t>(2, t.batches); ++k) {
@@ -521,7 +533,7 @@ StepTimes time_gradient_step(const SampleSet& samples, const ProductMixture& mix
   return t;
 }
 
-void gradient_epochs(const SampleSet& samples, ProductMixture& mix, int threads,
+void gradient_epochs(const SampleSet& samples, ProductMixture& mix, PredictionPass& pass,
                      const GradientConfig& config, PredictionRefinement& out) {
   constexpr int kWarmUpSteps = 20;
   const detail::Periods periods =
@@ -530,7 +542,6 @@ void gradient_epochs(const SampleSet& samples, ProductMixture& mix, int threads,
   out.training_samples = samples.size() - out.samples;
   out.batch_samples = out.training_samples / batches;
   const std::size_t validate_every = std::max<std::size_t>(1, batches / 4);
-  SparsePass pass(samples, mix.size(), threads);
   ProductMixture best = mix;
   Adam adam(pack(mix));
   Convergence rule;

@@ -5,12 +5,16 @@
 #pragma once
 
 #include <algorithm>
+#include <atomic>
 #include <cstddef>
 #include <cstdint>
+#include <functional>
+#include <memory>
 #include <span>
 #include <vector>
 
 #include "btfgmm/core/communicator.hpp"
+#include "btfgmm/gpu/compute_device.hpp"
 #include "btfgmm/model/refine.hpp"
 
 namespace btfgmm::detail {
@@ -78,10 +82,31 @@ std::vector<double> fold_over_processes(Communicator* processes, std::size_t n,
 // Whether any process asks (true in one asks all); one exchange over several processes.
 bool any_process(Communicator* processes, bool mine);
 
+// A pass of the prediction's squared error (Eq. 8-11), and with `gradient` its gradient, over
+// the samples of a selection: the CPU's (SparsePass, refine_pass.hpp) or a compute device's
+// (GpuPredictionPass, refine_gpu.hpp), the same numbers but for the order of float sums.
+class PredictionPass {
+ public:
+  virtual ~PredictionPass() = default;
+  virtual PredictionGradient operator()(const ProductMixture& mix, const Selection& selection,
+                                        bool gradient = true) = 0;
+  // The normal equations of the colour means' refit (colour_normal_equations) over the
+  // training samples of the subsample `stride`. A set `stop` may end them early (they are
+  // then of no use); `progress` is told how far they are.
+  virtual ColourNormalEquations normal_equations(const ProductMixture& mix, std::size_t stride,
+                                                 const std::atomic<bool>* stop,
+                                                 const std::function<void(double)>& progress) = 0;
+};
+
+// The pass on `device`, or on the CPU's `threads` where it is null, for mixtures of `m`
+// components. Throws Error(kArgument) where the device cannot hold the samples.
+std::unique_ptr<PredictionPass> make_prediction_pass(const SampleSet& samples, std::size_t m,
+                                                     int threads, ComputeDevice* device);
+
 // From a mixture whose colour means were just refitted: the Adam epochs of `config` over the
 // training samples, the colour refit after them; the parameters of the lowest validation
 // error met are kept in `mix`. Fills `out` (steps, epochs, errors, stopped).
-void gradient_epochs(const SampleSet& samples, ProductMixture& mix, int threads,
+void gradient_epochs(const SampleSet& samples, ProductMixture& mix, PredictionPass& pass,
                      const GradientConfig& config, PredictionRefinement& out);
 
 // The seconds of one Adam step's gradient pass over a minibatch of about `batch` training
@@ -91,12 +116,14 @@ struct StepTimes {
   double step = 0.0, validation = 0.0;
   std::size_t batches = 0, validate_every = 0;
 };
-StepTimes time_gradient_step(const SampleSet& samples, const ProductMixture& mix, int threads,
-                             std::size_t batch);
+StepTimes time_gradient_step(const SampleSet& samples, const ProductMixture& mix,
+                             PredictionPass& pass, std::size_t batch);
 
 // The squared error of the prediction over the samples of `selection` (float pass), and
 // their count.
 std::pair<double, std::size_t> selection_error(const SampleSet& samples, const ProductMixture& mix,
                                                int threads, const Selection& selection);
+std::pair<double, std::size_t> selection_error(PredictionPass& pass, const ProductMixture& mix,
+                                               const Selection& selection);
 
 }  // namespace btfgmm::detail

@@ -66,6 +66,12 @@ SparsePass::SparsePass(const SampleSet& s, std::size_t m, int threads)
       per_light_(s.held_lights()),
       scratch_(std::size_t(threads_), Scratch(s.views, stride_)) {}
 
+ColourNormalEquations SparsePass::normal_equations(const ProductMixture& mix, std::size_t stride,
+                                                   const std::atomic<bool>* stop,
+                                                   const std::function<void(double)>& progress) {
+  return colour_normal_equations(s_, mix, threads_, stride, true, stop, progress);
+}
+
 PredictionGradient SparsePass::operator()(const ProductMixture& mix, const Selection& selection,
                                           bool gradient) {
   selection_ = selection;

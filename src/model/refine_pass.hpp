@@ -35,12 +35,15 @@ constexpr std::size_t kChunk = 16;
 // at most e^-17.5 of its weights (EM's E pass skips at the same margin, em_tables.cpp).
 constexpr double kSkipMargin = 17.5;
 
-class SparsePass {
+class SparsePass final : public PredictionPass {
  public:
   SparsePass(const SampleSet& s, std::size_t m, int threads);
   // The error (and, with `gradient`, the gradient) of `mix` over the samples of `selection`.
   PredictionGradient operator()(const ProductMixture& mix, const Selection& selection,
-                                bool gradient = true);
+                                bool gradient = true) override;
+  ColourNormalEquations normal_equations(const ProductMixture& mix, std::size_t stride,
+                                         const std::atomic<bool>* stop,
+                                         const std::function<void(double)>& progress) override;
 
   // One thread's working space.
   struct Scratch {

@@ -9,10 +9,12 @@
 #include <cstddef>
 #include <cstdint>
 #include <functional>
+#include <memory>
 #include <string_view>
 #include <utility>
 #include <vector>
 
+#include "btfgmm/gpu/compute_device.hpp"
 #include "btfgmm/model/mixture.hpp"
 #include "btfgmm/model/provenance.hpp"
 #include "btfgmm/model/samples.hpp"
@@ -196,6 +198,10 @@ struct GradientConfig {
   // validation error met are kept and closed by the colour refit as after the last step
   // (PredictionRefinement::stopped). Null: never.
   const std::atomic<bool>* stop = nullptr;
+  // Where set, the gradient passes, the validations and the colour refits' normal equations
+  // run on this device (docs/GPU.md), the same numbers but for the order of float sums and the
+  // negligible weights the CPU skips; the refits' solves stay on the CPU. Null: the CPU.
+  std::shared_ptr<ComputeDevice> device = {};
 };
 
 // What the refinement of `gradient` will take on this machine, timed on `mix`: one Adam step

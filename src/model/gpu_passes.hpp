@@ -1,0 +1,55 @@
+// What the model's passes on a compute device share (em_gpu.cpp, refine_gpu.cpp): how a
+// light's pixels are cut into chunks, push constants as bytes, workgroup counts within
+// Vulkan's least limits, and the sums of chunks in chunk order (em_light_sums.comp).
+#pragma once
+
+#include <algorithm>
+#include <cstddef>
+#include <cstdint>
+#include <memory>
+#include <span>
+#include <utility>
+
+#include "btfgmm/gpu/compute_device.hpp"
+
+namespace btfgmm::detail {
+
+constexpr std::uint32_t kSumGroup = 256;      // em_light_sums.comp's local size
+constexpr std::uint32_t kMaxGroupsX = 65535;  // Vulkan's least maxComputeWorkGroupCount
+
+// A light's pixels are cut into chunks as the CPU's E pass cuts them (em.cpp, chunk_count).
+inline std::uint32_t gpu_chunks(std::size_t pixels) {
+  return std::uint32_t(std::clamp<std::size_t>((pixels + 255) / 256, 1, 16));
+}
+
+template <typename T>
+std::span<const std::byte> bytes_of(const T& value) {
+  return std::as_bytes(std::span(&value, 1));
+}
+
+// Enough workgroups of `size` for `n` invocations, as (x, y) within Vulkan's least limits.
+inline std::pair<std::uint32_t, std::uint32_t> groups_for(std::size_t n, std::uint32_t size) {
+  const auto groups = std::uint32_t((n + size - 1) / size);
+  const std::uint32_t gx = std::max<std::uint32_t>(1, std::min(groups, kMaxGroupsX));
+  return {gx, (groups + gx - 1) / gx};
+}
+
+// `to`[g][i] = the sum over c, in order, of `from`[g][c][i], for i < per_chunk, c < chunks,
+// g < groups, by em_light_sums.comp (`kernel`).
+inline void sum_chunks(ComputeDevice& device, GpuKernel& kernel, GpuBuffer& from, GpuBuffer& to,
+                       std::size_t per_chunk, std::size_t chunks, std::size_t groups) {
+  struct Push {
+    std::uint32_t per_chunk, chunks, held;
+  };
+  const Push push{std::uint32_t(per_chunk), std::uint32_t(chunks), std::uint32_t(groups)};
+  GpuBuffer* bound[] = {&from, &to};
+  device.run(kernel, bound, bytes_of(push), std::uint32_t((per_chunk + kSumGroup - 1) / kSumGroup),
+             push.held);
+}
+
+// The light sums' kernel, as sum_chunks runs it.
+inline std::shared_ptr<GpuKernel> chunk_sums_kernel(ComputeDevice& device) {
+  return device.kernel("em_light_sums.spv", 2, 3 * sizeof(std::uint32_t));
+}
+
+}  // namespace btfgmm::detail
