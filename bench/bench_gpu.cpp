@@ -2,7 +2,8 @@
 // starting parameters, one after the other in this process: for each, the time of an
 // iteration (the mean of iterations 2..K), the E pass alone, ns per sample x component of an
 // iteration, and the mean log-likelihood at every iteration with the largest relative
-// difference between the two (the GPU sums in another order: at most 1e-5 is the same fit).
+// difference between the two (the GPU sums in another order: at most 1e-5 is the same fit);
+// then the refinement for the prediction's passes from EM's final mixture, both ways.
 //
 //   bench_gpu [--size S] [--tile T] [--components M] [--iterations K] [--threads N]
 //             [--device gpu|auto] [--no-cpu]
@@ -25,6 +26,7 @@
 #include "btfgmm/btfgmm.hpp"
 #include "model/em_gpu.hpp"
 #include "model/em_tables.hpp"
+#include "model/refine_internal.hpp"
 
 namespace {
 
@@ -90,6 +92,49 @@ void print_stages(const Options& o, const btfgmm::SampleSet& s, const btfgmm::Pr
       "about %.0f Gflop/s (50 flops a sample x component)\n",
       mix.size(), runs, tables / runs, g.upload / runs, g.normaliser / runs, g.statistics / runs,
       g.host / runs, kernels / (n * double(mix.size())) * 1e9, flops / kernels * 1e-9);
+}
+
+// Seconds a call of `f` takes, the mean of `runs` after one unclocked.
+template <class F>
+double mean_seconds(int runs, F&& f) {
+  f();
+  const double t0 = bench::now();
+  for (int r = 0; r < runs; ++r) f();
+  return (bench::now() - t0) / runs;
+}
+
+// The refinement for the prediction's passes from `mix` on the CPU and on the device, side by
+// side (docs/GPU.md): a minibatch's gradient (16,384 samples, as the Adam steps take them), a
+// validation (the error over the held-out samples) and the colour refit's normal equations
+// (its subsample), each the mean of five; the two errors' relative difference (for the normal
+// equations, the error they give the mixture, prediction_squared_error).
+void print_refinement(const Options& o, const btfgmm::SampleSet& s,
+                      const btfgmm::ProductMixture& mix, btfgmm::ComputeDevice& device) {
+  namespace d = btfgmm::detail;
+  using Part = d::Selection::Part;
+  const auto cpu = d::make_prediction_pass(s, mix.size(), o.threads, nullptr);
+  const auto gpu = d::make_prediction_pass(s, mix.size(), o.threads, &device);
+  const std::size_t batches = std::max<std::size_t>(1, s.size() / 16384);
+  const d::Selection batch{batches, 0, Part::kTraining}, held{1, 0, Part::kValidation};
+  const std::size_t stride = d::subsample_stride(s.size(), btfgmm::kColourRefitSamples);
+  std::printf(
+      "\nthe refinement's passes from EM's final mixture (M = %zu), mean of 5:\n"
+      "| pass | CPU s | GPU s | CPU s / GPU s | error, relative difference "
+      "|\n|---|---|---|---|---|\n",
+      mix.size());
+  const auto row = [&](const char* name, auto&& on) {
+    double e_cpu = 0.0, e_gpu = 0.0;
+    const double t_cpu = mean_seconds(5, [&] { e_cpu = on(*cpu); });
+    const double t_gpu = mean_seconds(5, [&] { e_gpu = on(*gpu); });
+    std::printf("| %s | %.5f | %.5f | %.2f | %.1e |\n", name, t_cpu, t_gpu, t_cpu / t_gpu,
+                std::abs(e_gpu - e_cpu) / std::max(std::abs(e_cpu), 1e-300));
+    std::fflush(stdout);
+  };
+  row("a minibatch's gradient", [&](d::PredictionPass& p) { return p(mix, batch).error; });
+  row("a validation", [&](d::PredictionPass& p) { return p(mix, held, false).error; });
+  row("the colour refit's normal equations", [&](d::PredictionPass& p) {
+    return btfgmm::prediction_squared_error(p.normal_equations(mix, stride, nullptr, {}), mix);
+  });
 }
 
 void print_row(const char* name, const Run& r, double n, std::size_t m) {
@@ -163,6 +208,7 @@ int main(int argc, char** argv) {
   if (!o.cpu) {
     print_row("GPU", gpu, n, o.components);
     print_stages(o, s, gpu.mixture, *device, n);
+    print_refinement(o, s, gpu.mixture, *device);
     return 0;
   }
   const Run cpu = run_em(o, s, nullptr);
@@ -178,6 +224,7 @@ int main(int argc, char** argv) {
       "every iteration within %.2e (relative)\n",
       cpu.per_iteration / gpu.per_iteration, cpu.e_pass / gpu.e_pass, worst);
   print_stages(o, s, cpu.mixture, *device, n);
+  print_refinement(o, s, cpu.mixture, *device);
   if (worst > 1e-5 || a.size() != b.size()) {
     std::printf("the GPU's log-likelihood differs from the CPU's\n");
     return 1;

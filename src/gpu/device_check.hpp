@@ -2,6 +2,7 @@
 // made before any transfer.
 #pragma once
 
+#include <cstddef>
 #include <string>
 #include <string_view>
 
@@ -22,6 +23,22 @@ inline void check_device_holds(const DeviceInfo& info, double bytes, double larg
                   human_bytes(bytes) + " of its " + human_bytes(double(info.memory_bytes)) +
                   " (its largest buffer: " + human_bytes(double(info.max_buffer_bytes)) +
                   "); fit a smaller tile, or on the CPU (" + option_name("device") + " cpu)");
+}
+
+// Mesa's lavapipe (22.3) ends a shader's loop nest after 65,535 iterations of its loops in all,
+// silently; a pass that would run more in one workgroup on a software device is refused.
+constexpr std::size_t kSoftwareLoopIterations = 65535;
+
+// Throws Error(kArgument) where `info` is a software device and a workgroup of `what` would
+// run more than kSoftwareLoopIterations iterations of a loop nest, naming `device` cpu.
+inline void check_loop_nest(const DeviceInfo& info, std::size_t iterations, std::string_view what) {
+  if (!info.software || iterations <= kSoftwareLoopIterations) return;
+  throw Error(Error::Kind::kArgument,
+              "the software Vulkan device " + info.name + " cannot run " + std::string(what) +
+                  ": " + std::to_string(iterations) +
+                  " iterations of a loop in one workgroup, past the 65,535 it runs; a smaller "
+                  "tile, or the CPU (" +
+                  option_name("device") + " cpu)");
 }
 
 }  // namespace btfgmm::detail

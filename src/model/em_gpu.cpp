@@ -73,6 +73,7 @@ GpuEPass::GpuEPass(ComputeDevice& device, const SampleSet& s)
     : state_(std::make_unique<State>(device, s)) {
   check_device_holds(device.info(), device_bytes(s, 16), 16.0 * double(s.held_size()),
                      "the fit's " + std::to_string(s.held_size()) + " samples");
+  check_loop_nest(device.info(), statistics_iterations(s.pixels(), s.views), "EM's E pass");
   State& g = *state_;
   g.normaliser = device.kernel("em_normaliser.spv", 7, sizeof(NormaliserPush));
   g.statistics = device.kernel("em_statistics.spv", 10, sizeof(StatisticsPush));

@@ -22,6 +22,14 @@ inline std::uint32_t gpu_chunks(std::size_t pixels) {
   return std::uint32_t(std::clamp<std::size_t>((pixels + 255) / 256, 1, 16));
 }
 
+// The iterations of the statistics shaders' loop nests (em_statistics.comp,
+// refine_statistics.comp) in one workgroup: four pixels of a chunk at a time, each with its
+// `per_pixel` samples.
+inline std::size_t statistics_iterations(std::size_t pixels, std::size_t per_pixel) {
+  const std::size_t chunk = (pixels + gpu_chunks(pixels) - 1) / gpu_chunks(pixels);
+  return (chunk + 3) / 4 * (per_pixel + 1);
+}
+
 template <typename T>
 std::span<const std::byte> bytes_of(const T& value) {
   return std::as_bytes(std::span(&value, 1));

@@ -112,6 +112,8 @@ GpuPredictionPass::GpuPredictionPass(ComputeDevice& device, const SampleSet& s,
     : state_(std::make_unique<State>(device, s, components)) {
   check_device_holds(device.info(), device_bytes(s, components), 32.0 * double(s.held_size()),
                      "the refinement's " + std::to_string(s.held_size()) + " samples");
+  check_loop_nest(device.info(), statistics_iterations(s.pixels(), s.views),
+                  "the refinement's passes");
   State& g = *state_;
   g.tables = device.kernel("refine_tables.spv", 9, sizeof(TablesPush));
   g.errors = device.kernel("refine_errors.spv", 8, sizeof(ErrorsPush));
@@ -323,6 +325,9 @@ ColourNormalEquations GpuPredictionPass::normal_equations(
   if (stop && stop->load()) return eq;
   g.make_tables(mix);
   const Selection training{std::max<std::size_t>(stride, 1), 0, Selection::Part::kTraining};
+  const std::size_t samples =
+      s.pixels() * s.held_lights() * ((s.views + training.modulus - 1) / training.modulus);
+  check_loop_nest(g.device.info(), (samples + 15) / 16, "the colour refit's normal equations");
   const std::uint32_t slots = g.run_errors(training);
   const std::vector<double> errors = g.light_errors(slots);
   const std::size_t blocks = (m + kBlock - 1) / kBlock;

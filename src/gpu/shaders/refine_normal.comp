@@ -85,7 +85,9 @@ void main() {
     barrier();  // the previous slots' reads are done
     load_weights(q0 + ty, total, ty, 4 * tx, a0, b0);
     barrier();
-    for (uint s = 0; s < kSlotsAtOnce; ++s) {
+    // Unrolled: Mesa's lavapipe ends a loop nest after 65,535 iterations of its inner loops
+    // in all, which a loop over the slots within the loop over their tiles would reach.
+    [[unroll]] for (uint s = 0; s < kSlotsAtOnce; ++s) {
       [[unroll]] for (uint i = 0; i < 4; ++i) {
         const float w = wa[s][4 * tx + i];
         [[unroll]] for (uint j = 0; j < 4; ++j) g[i][j] += w * wb[s][4 * ty + j];
