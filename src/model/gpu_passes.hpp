@@ -24,10 +24,10 @@ inline std::uint32_t gpu_chunks(std::size_t pixels) {
 
 // The iterations of the statistics shaders' loop nests (em_statistics.comp,
 // refine_statistics.comp) in one workgroup: four pixels of a chunk at a time, each with its
-// `per_pixel` samples.
+// `per_pixel` samples, read in tiles of at most 64 (a loop of its own, and one to load each).
 inline std::size_t statistics_iterations(std::size_t pixels, std::size_t per_pixel) {
   const std::size_t chunk = (pixels + gpu_chunks(pixels) - 1) / gpu_chunks(pixels);
-  return (chunk + 3) / 4 * (per_pixel + 1);
+  return (chunk + 3) / 4 * (per_pixel + 2 * ((per_pixel + 63) / 64) + 1) + 64;
 }
 
 template <typename T>

@@ -87,6 +87,7 @@ struct GpuPredictionPass::State {
   }
   void upload_samples();
   void make_tables(const ProductMixture& mix);
+  std::vector<double> normal_sums(const ProductMixture& mix, const Selection& training);
   std::uint32_t run_errors(const Selection& selection);
   std::vector<double> light_errors(std::size_t per_pixel);
   void sum(GpuBuffer& from, GpuBuffer& to, std::size_t per_chunk, std::size_t chunks,
@@ -110,7 +111,12 @@ double GpuPredictionPass::device_bytes(const SampleSet& s, std::size_t component
 GpuPredictionPass::GpuPredictionPass(ComputeDevice& device, const SampleSet& s,
                                      std::size_t components)
     : state_(std::make_unique<State>(device, s, components)) {
-  check_device_holds(device.info(), device_bytes(s, components), 32.0 * double(s.held_size()),
+  const double m = double(components), held = double(s.held_lights());
+  const double blocks = std::ceil(m / double(kBlock)) * double(kBlock);
+  const double largest =
+      std::max({32.0 * double(s.held_size()), 4.0 * double(s.pixels()) * m,
+                8.0 * held * double(gpu_chunks(s.pixels())) * kRows * m, 8.0 * blocks * blocks});
+  check_device_holds(device.info(), device_bytes(s, components), largest,
                      "the refinement's " + std::to_string(s.held_size()) + " samples");
   check_loop_nest(device.info(), statistics_iterations(s.pixels(), s.views),
                   "the refinement's passes");
@@ -226,7 +232,8 @@ std::vector<double> GpuPredictionPass::State::totals_of(std::uint32_t chunks) {
   if (!s.processes || s.processes->size() == 1) {
     sum(*sums, *totals, m, held, kRows);
     device.download_values<double>(*totals, std::span<double>(t.data(), at_light));
-    device.download_values<double>(*sums, std::span<double>(t.data() + at_light, held * m));
+    device.download_values<double>(
+        *sums, std::span<double>(t.data() + at_light + s.first_light * m, held * m));
     return t;
   }
   std::vector<double> rows(held * kRows * m);
@@ -314,22 +321,15 @@ std::uint32_t GpuPredictionPass::State::run_errors(const Selection& selection) {
   return slots;
 }
 
-ColourNormalEquations GpuPredictionPass::normal_equations(
-    const ProductMixture& mix, std::size_t stride, const std::atomic<bool>* stop,
-    const std::function<void(double)>& progress) {
-  State& g = *state_;
-  const SampleSet& s = g.s;
-  const std::size_t m = g.m;
-  ColourNormalEquations eq;
-  eq.components = m;
-  if (stop && stop->load()) return eq;
-  g.make_tables(mix);
-  const Selection training{std::max<std::size_t>(stride, 1), 0, Selection::Part::kTraining};
-  const std::size_t samples =
-      s.pixels() * s.held_lights() * ((s.views + training.modulus - 1) / training.modulus);
-  check_loop_nest(g.device.info(), (samples + 15) / 16, "the colour refit's normal equations");
-  const std::uint32_t slots = g.run_errors(training);
-  const std::vector<double> errors = g.light_errors(slots);
+// This process's sums of the colour refit's normal equations over the samples of `training`,
+// laid out as the totals: G (M^2), b (3M), the energy (3), the count.
+std::vector<double> GpuPredictionPass::State::normal_sums(const ProductMixture& mix,
+                                                          const Selection& training) {
+  const std::size_t at_rhs = m * m, at_energy = at_rhs + 3 * m, at_count = at_energy + 3;
+  std::vector<double> mine(at_count + 1, 0.0);
+  make_tables(mix);
+  const std::uint32_t slots = run_errors(training);
+  const std::vector<double> counted = light_errors(slots);
   const std::size_t blocks = (m + kBlock - 1) / kBlock;
   const NormalPush push{std::uint32_t(m),
                         std::uint32_t(s.pixels()),
@@ -338,16 +338,12 @@ ColourNormalEquations GpuPredictionPass::normal_equations(
                         std::uint32_t(s.first_light),
                         slots,
                         std::uint32_t(blocks)};
-  GpuBuffer* bound[] = {g.pixel_r.get(),   g.light_r.get(),      g.view_r.get(),
-                        g.residual.get(),  g.slots_buffer.get(), g.gram_blocks.get(),
-                        g.rhs_blocks.get()};
-  g.device.run(*g.normal, bound, bytes_of(push), std::uint32_t(blocks), std::uint32_t(blocks));
+  GpuBuffer* bound[] = {pixel_r.get(),      light_r.get(),     view_r.get(),    residual.get(),
+                        slots_buffer.get(), gram_blocks.get(), rhs_blocks.get()};
+  device.run(*normal, bound, bytes_of(push), std::uint32_t(blocks), std::uint32_t(blocks));
   std::vector<double> gram(blocks * blocks * kBlock * kBlock), rhs(blocks * kBlock * 3);
-  g.device.download_values<double>(*g.gram_blocks, gram);
-  g.device.download_values<double>(*g.rhs_blocks, rhs);
-  // This process's sums as the totals' layout: G (M^2), b (3M), the energy (3), the count.
-  const std::size_t at_rhs = m * m, at_energy = at_rhs + 3 * m, at_count = at_energy + 3;
-  std::vector<double> mine(at_count + 1, 0.0);
+  device.download_values<double>(*gram_blocks, gram);
+  device.download_values<double>(*rhs_blocks, rhs);
   for (std::size_t a = 0; a < m; ++a)
     for (std::size_t b = a; b < m; ++b) {
       const std::size_t block = (a / kBlock) * blocks + b / kBlock;
@@ -364,11 +360,31 @@ ColourNormalEquations GpuPredictionPass::normal_equations(
             const double r = s.residual_of(p, l, v, c);
             mine[at_energy + std::size_t(c)] += r * r;
           }
-  for (std::size_t lh = 0; lh < s.held_lights(); ++lh) mine[at_count] += errors[2 * lh + 1];
+  for (std::size_t lh = 0; lh < s.held_lights(); ++lh) mine[at_count] += counted[2 * lh + 1];
+  return mine;
+}
+
+ColourNormalEquations GpuPredictionPass::normal_equations(
+    const ProductMixture& mix, std::size_t stride, const std::atomic<bool>* stop,
+    const std::function<void(double)>& progress) {
+  State& g = *state_;
+  const SampleSet& s = g.s;
+  const std::size_t m = g.m;
+  const Selection training{std::max<std::size_t>(stride, 1), 0, Selection::Part::kTraining};
+  // Counted over the lights of every process, so that each refuses alike.
+  const std::size_t samples =
+      s.pixels() * s.lights * ((s.views + training.modulus - 1) / training.modulus);
+  check_loop_nest(g.device.info(), (samples + 15) / 16, "the colour refit's normal equations");
+  const std::size_t at_rhs = m * m, at_energy = at_rhs + 3 * m, at_count = at_energy + 3;
+  // Zeros where stopped: every process takes part in the fold.
+  const std::vector<double> mine =
+      stop && stop->load() ? std::vector<double>(at_count + 1, 0.0) : g.normal_sums(mix, training);
   const std::vector<double> total =
       fold_over_processes(s.processes.get(), mine.size(), [&](std::vector<double>& t) {
         for (std::size_t i = 0; i < t.size(); ++i) t[i] += mine[i];
       });
+  ColourNormalEquations eq;
+  eq.components = m;
   eq.gram.assign(total.begin(), total.begin() + std::ptrdiff_t(at_rhs));
   eq.rhs.assign(total.begin() + std::ptrdiff_t(at_rhs), total.begin() + std::ptrdiff_t(at_energy));
   for (std::size_t c = 0; c < 3; ++c) eq.energy[c] = total[at_energy + c];

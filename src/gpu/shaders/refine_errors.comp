@@ -20,7 +20,8 @@ layout(std430, binding = 3) readonly buffer Components { vec4 comp[]; };
 // Per sample (held light, pixel, view) its residual colour (r, g, b, 0) and a bit: held out.
 layout(std430, binding = 4) readonly buffer Residuals { vec4 residual[]; };
 layout(std430, binding = 5) readonly buffer HeldOut { uint held_out[]; };
-// Per slot: (e, e . yhat) and (mx, 1 / sum, the view's bits, 0); 1 / sum = 0 where no sample.
+// Per slot: (e, e . yhat) and (mx, 1 / sum, the view (exact in float), 0); 1 / sum = 0 where
+// no sample.
 layout(std430, binding = 6) writeonly buffer Slots { vec4 slot[]; };
 layout(std430, binding = 7) writeonly buffer GroupErrors { dvec2 group_errors[]; };
 
@@ -70,7 +71,7 @@ void main() {
       const vec3 yhat = y * inv;
       const vec3 e = residual[n].xyz - yhat;
       slot[at] = vec4(e, dot(e, yhat));
-      slot[at + 1] = vec4(mx, inv, uintBitsToFloat(v), 0.0);
+      slot[at + 1] = vec4(mx, inv, float(v), 0.0);
       term = dvec2(double(e.x) * double(e.x) + double(e.y) * double(e.y) +
                        double(e.z) * double(e.z),
                    1.0);

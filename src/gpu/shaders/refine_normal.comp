@@ -38,7 +38,7 @@ void load_weights(uint q, uint total, uint s, uint j4, uint a0, uint b0) {
     const vec4 norm = slot[2 * q + 1];
     mx = norm.x;
     inv = norm.y;
-    v = floatBitsToUint(norm.z);
+    v = uint(norm.z);
     const uint lh = q / (pc.pixels * pc.slots);
     p = (q / pc.slots) % pc.pixels;
     l = pc.first_light + lh;

@@ -85,7 +85,7 @@ void main() {
       for (uint i = 0; i < n; ++i) {
         const vec4 norm = slot_n[lane][i];
         if (norm.y == 0.0) continue;
-        const uint v = floatBitsToUint(norm.z);
+        const uint v = uint(norm.z);
         const float w = exp(tp + view_r[v * pc.components + k] - norm.x) * norm.y;
         const vec4 e = slot_e[lane][i];
         const float g = -2.0 * w * (dot(e.xyz, mu) - e.w);
