@@ -1,0 +1,86 @@
+// The neural BTF (Rainer, Jakob, Ghosh & Weyrich 2019, "Neural BTF Compression and
+// Interpolation", Eurographics): a latent vector of L values per texel and one multilayer
+// perceptron shared by the tile, which maps a texel's latent and a light and a view direction
+// to the texel's RGB (methods/neural_network.hpp). The latents and the network are fitted
+// together by Adam, as the paper's decoder is; the paper's encoder, which predicts the latents
+// of a new material without a fit, is not part of it. The model evaluates any pixel (the
+// latents interpolated bilinearly between texels; the tile repeats) at any pair of directions
+// on the hemisphere, measured or not.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <memory>
+#include <span>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "btfgmm/methods/representation.hpp"
+
+namespace btfgmm {
+
+// The network's size: L latent values per texel, `depth` hidden layers of `width` units.
+struct NeuralShape {
+  std::size_t latent = 0, width = 0, depth = 0;
+};
+
+class NeuralBtf final : public Representation {
+ public:
+  // latents: pixels x L (row-major: a texel's latent together), stored as `encoding` stores
+  // them; parameters: the network's flat vector (methods/neural_network.hpp), stored as 16-bit
+  // floats; `scale`: the data value of a network output of 1.
+  NeuralBtf(ModelFrame frame, NeuralShape shape, FactorEncoding encoding, float scale,
+            std::vector<float> latents, std::vector<float> parameters);
+
+  const NeuralShape& shape() const { return shape_; }
+  float scale() const { return scale_; }
+  std::span<const float> latents() const { return latents_; }
+  std::span<const float> network_parameters() const { return parameters_; }
+
+  std::string_view method() const override;
+  const ModelFrame& frame() const override { return frame_; }
+  // "L = 8, 2 x 64".
+  std::string size_text() const override;
+  double size_order() const override { return double(parameter_count()); }
+  // The paper's count: the latents (W*H*L) and the network's weights and biases.
+  std::uint64_t parameter_count() const override;
+  void predict(std::span<const Query> queries, std::span<float> rgb) const override;
+  Btf decode(const DirectionSet& lights, const DirectionSet& views, int width, int height,
+             double tolerance) const override;
+  std::vector<std::uint8_t> payload() const override;
+  FactorEncoding encoding() const override { return encoding_; }
+  std::vector<std::pair<std::string, std::string>> details() const override;
+
+ private:
+  ModelFrame frame_;
+  NeuralShape shape_;
+  FactorEncoding encoding_;
+  float scale_;
+  std::vector<float> latents_, parameters_;
+};
+
+// The default shape of a fit (`components` L, `width`, `depth`) and epochs (`iterations`).
+constexpr std::size_t kNeuralDefaultLatent = 8;
+constexpr std::size_t kNeuralDefaultWidth = 64;
+constexpr std::size_t kNeuralDefaultDepth = 2;
+constexpr int kNeuralDefaultEpochs = 30;
+
+// W*H*L + the network's parameters: the neural BTF's stored values on `frame`.
+std::uint64_t neural_btf_parameter_count(const ModelFrame& frame, const NeuralShape& shape);
+
+// Fits a neural BTF to a tile: s.components = L (8), s.width (64), s.depth (2) hidden layers,
+// s.iterations = the most epochs (passes over the training samples, 30), s.seed, s.threads
+// (the model does not depend on them), s.precision (the latents' storage; the network is
+// always 16-bit floats). Adam on minibatches of the training samples; 1 in 20 samples held out
+// (model/refine.hpp, validation_sample) choose the parameters kept (the lowest held-out error)
+// and when to stop. Throws Error(kArgument) naming the option for a size out of range, and on
+// s.stop.
+std::unique_ptr<Representation> fit_neural_btf(const Btf& tile, const FitOptions& s);
+// Reads NeuralBtf::payload(); Error(kFormat) naming `name`.
+std::unique_ptr<Representation> read_neural_btf(std::span<const std::uint8_t> payload,
+                                                std::uint32_t flags, const std::string& name);
+// Shapes spanning Table 2 ratios from about 1:100 to 1:3000 on `frame`, smallest first.
+std::vector<FitOptions> neural_btf_ladder(const ModelFrame& frame);
+
+}  // namespace btfgmm
