@@ -14,6 +14,7 @@
 #include "btfgmm/methods/fit_options.hpp"
 #include "btfgmm/methods/gaussian_mixture.hpp"
 #include "btfgmm/methods/lpca.hpp"
+#include "btfgmm/methods/neural_btf.hpp"
 #include "btfgmm/methods/pca_btf.hpp"
 #include "btfgmm/methods/pca_rf.hpp"
 #include "btfgmm/methods/plm_rf.hpp"
@@ -249,6 +250,38 @@ MethodInfo texture_model_row(std::string_view name, std::string_view title,
           .synthesises = true};
 }
 
+constexpr FitParameter kNeuralParameters[] = {
+    model_size("components", &FitOptions::components, "8", "latent values L per texel"),
+    {.field = "width",
+     .type = T::kCount,
+     .member = &FitOptions::width,
+     .min = 1,
+     .max = 512,
+     .default_text = "64",
+     .routes = kNewFit,
+     .help = "units per hidden layer of the network"},
+    {.field = "depth",
+     .type = T::kCount,
+     .member = &FitOptions::depth,
+     .min = 1,
+     .max = 16,
+     .default_text = "2",
+     .routes = kNewFit,
+     .help = "hidden layers of the network"},
+    most_iterations("30",
+                    "the most epochs (passes over the training samples); the held-out error "
+                    "ends them earlier"),
+    {.field = "precision",
+     .type = T::kWord,
+     .member = &FitOptions::precision,
+     .choices = "compact f32 f16 q8",
+     .default_text = "compact",
+     .routes = FitRoute::kNew | FitRoute::kSweep,
+     .help = "the latents' storage: compact (quantised with a step per latent dimension, "
+             "predicted from neighbouring texels, zstd), f32, f16 or q8; the network is always "
+             "16-bit floats"},
+};
+
 // One row a method (docs/METHODS.md); `sizes` names the options that set its size.
 const std::vector<MethodInfo>& table() {
   static const std::vector<MethodInfo> methods = {
@@ -310,6 +343,14 @@ const std::vector<MethodInfo>& table() {
        .fit = fit_plm_rf,
        .read = read_plm_rf,
        .ladder = plm_rf_ladder},
+      {.name = "neural",
+       .title = "Neural BTF: a latent vector per texel, one network of latent, light and view",
+       .citation = "Rainer, Jakob, Ghosh, Weyrich 2019",
+       .sizes = "`components` L (latent values per texel, 8), `width` (64), `depth` (2)",
+       .parameters = kNeuralParameters,
+       .fit = fit_neural_btf,
+       .read = read_neural_btf,
+       .ladder = neural_btf_ladder},
       texture_model_row(
           "3d-car", "3D CAR: BTF subspaces, a causal autoregressive model of RGB each, a range map",
           fit_car3d, read_car3d),
@@ -337,6 +378,8 @@ std::vector<std::pair<std::string, std::string>> settings_record(const MethodInf
   add("components", s.components);
   add("clusters", s.clusters);
   add("degree", s.degree);
+  add("width", s.width);
+  add("depth", s.depth);
   add("iterations", std::size_t(std::max(s.iterations, 0)));
   add("levels", std::size_t(std::max(s.levels, 0)));
   // The mixture's refinement's bounds, named as its own fit records them (model/fit.cpp).

@@ -57,10 +57,14 @@ FactorEncoding parse_factor_encoding(std::string_view text, std::string_view opt
 // or an option left empty take the method's default.
 struct FitOptions {
   std::string method = "gm";      // the method's name, as MethodInfo::name
-  std::size_t components = 0;     // M for gm; eigen-images c for the PCAs; per cluster for lpca
+  std::size_t components = 0;     // M for gm; eigen-images c for the PCAs; per cluster for lpca;
+                                  // neural: latent values L per texel
   std::size_t clusters = 0;       // lpca: k clusters; 3d-car, 2d-car, gmrf: subspaces
   std::size_t degree = 0;         // plm-rf: degree l of the per-image polynomial
-  int iterations = 0;             // gm: EM; lpca: re-assignment rounds; plm-rf: LM steps
+  std::size_t width = 0;          // neural: units per hidden layer of the network
+  std::size_t depth = 0;          // neural: hidden layers of the network
+  int iterations = 0;             // gm: EM; lpca: re-assignment rounds; plm-rf: LM steps;
+                                  // neural: epochs
   int levels = 0;                 // 3d-car, 2d-car, gmrf: Gaussian-Laplacian pyramid levels
   std::optional<double> epsilon;  // gm: EM stops when L's relative gain is below it (none: 0)
   std::string objective;          // gm: "prediction" (empty) or "likelihood"

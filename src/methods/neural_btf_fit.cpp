@@ -1,0 +1,291 @@
+// The neural BTF's fit (Rainer, Jakob, Ghosh & Weyrich 2019, Sec. 4: the decoder's network and
+// the texels' latents trained together by Adam on minibatches of (texel, light, view) samples
+// against the measured RGB), with the held-out validation and stopping rule of the mixture's
+// refinement (model/refine.hpp): the lowest held-out error kept, the rate halved when it stops
+// falling, bounded in epochs, never in time, so that the same data, settings and seed give the
+// same model on any number of threads.
+#include <fmt/format.h>
+#include <omp.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <limits>
+#include <numeric>
+
+#include "btfgmm/core/error.hpp"
+#include "btfgmm/core/text.hpp"
+#include "btfgmm/methods/neural_btf.hpp"
+#include "btfgmm/model/refine.hpp"
+#include "core/adam.hpp"
+#include "core/random.hpp"
+#include "methods/factors.hpp"
+#include "methods/neural_btf_internal.hpp"
+#include "methods/pca_methods.hpp"
+
+namespace btfgmm {
+namespace {
+
+constexpr std::string_view kMethod = "neural";
+
+// Adam's rates (Kingma & Ba 2015's alpha) for the network's parameters and for the latents,
+// warmed up over the first kWarmUpSteps steps; the validation's blocks of samples.
+constexpr float kNetworkRate = 2e-3f;
+constexpr float kLatentRate = 1e-2f;
+constexpr int kWarmUpSteps = 20;
+constexpr std::size_t kValidationBlock = 4096;
+// The stopping rule (GradientConfig's): the rate halved when the held-out error has not
+// fallen by kMinGain (relative) over kPatience validations, a quarter epoch apart; the steps
+// end after kPlateaus halvings.
+constexpr int kPatience = 4, kPlateaus = 3;
+constexpr double kMinGain = 1e-3;
+
+// The fit's samples: sample i = pair j * pixels + texel p, the tile's own order.
+struct Samples {
+  NeuralShape shape;
+  std::size_t pixels = 0, pairs = 0;
+  std::vector<float> directions;  // pairs x kDirectionInputs (encode_directions)
+  std::vector<float> targets;     // the tile's values / scale, samples x 3
+  std::vector<std::uint32_t> training, validation;
+  float scale = 1.0f;
+};
+
+// A shape option: `fallback` when 0, else within 1..max; Error(kArgument) naming it.
+std::size_t shape_setting(std::size_t given, std::size_t fallback, std::size_t max,
+                          std::string_view field, std::string_view what) {
+  if (given == 0) return fallback;
+  if (given > max)
+    throw Error(Error::Kind::kArgument,
+                fmt::format("{}: {} takes 1..{} {}", option_value(field, std::to_string(given)),
+                            kMethod, max, what));
+  return given;
+}
+
+NeuralShape shape_of(const FitOptions& s) {
+  detail::refuse_clusters(s, kMethod);
+  return {.latent = shape_setting(s.components, kNeuralDefaultLatent, detail::kMaxLatent,
+                                  "components", "latent values per texel"),
+          .width = shape_setting(s.width, kNeuralDefaultWidth, detail::kMaxWidth, "width",
+                                 "units per hidden layer"),
+          .depth = shape_setting(s.depth, kNeuralDefaultDepth, detail::kMaxDepth, "depth",
+                                 "hidden layers")};
+}
+
+// The data value of a network output of 1: the tile's RMS value (1 for a tile of zeros), so
+// that the network's targets are about 1.
+float output_scale(const Btf& tile) {
+  double sum = 0.0;
+  for (const float v : tile.data()) sum += double(v) * double(v);
+  const double rms = std::sqrt(sum / double(std::max<std::size_t>(tile.data().size(), 1)));
+  return rms > 1e-6 ? float(rms) : 1.0f;
+}
+
+// The samples, split as the mixture's refinement splits them (validation_sample).
+Samples samples_of(const Btf& tile, const NeuralShape& shape) {
+  Samples s;
+  s.shape = shape;
+  s.pixels = std::size_t(tile.width()) * std::size_t(tile.height());
+  s.pairs = tile.image_count();
+  s.scale = output_scale(tile);
+  s.directions.resize(s.pairs * detail::kDirectionInputs);
+  for (std::size_t l = 0; l < tile.lights().size(); ++l)
+    for (std::size_t v = 0; v < tile.views().size(); ++v)
+      detail::encode_directions(to_vector(tile.lights()[l]), to_vector(tile.views()[v]),
+                                std::span(s.directions)
+                                    .subspan(tile.image_index(l, v) * detail::kDirectionInputs,
+                                             detail::kDirectionInputs));
+  s.targets.resize(tile.data().size());
+  for (std::size_t i = 0; i < s.targets.size(); ++i) s.targets[i] = tile.data()[i] / s.scale;
+  for (std::size_t j = 0; j < s.pairs; ++j)
+    for (std::size_t p = 0; p < s.pixels; ++p) {
+      const auto i = std::uint32_t(j * s.pixels + p);
+      (validation_sample(p, j, s.pairs) ? s.validation : s.training).push_back(i);
+    }
+  // A tile too small to hold out a sample (or to train on one) validates on what it has.
+  if (s.validation.empty()) s.validation = s.training;
+  if (s.training.empty()) s.training = s.validation;
+  return s;
+}
+
+// The network's inputs and targets of the samples `ids`: each texel's latent from `latents`
+// (pixels x L), then its pair's directions.
+void gather(const Samples& s, std::span<const float> latents, std::span<const std::uint32_t> ids,
+            std::vector<float>& inputs, std::vector<float>& targets) {
+  const std::size_t L = s.shape.latent, n = L + detail::kDirectionInputs;
+  inputs.resize(ids.size() * n);
+  targets.resize(ids.size() * 3);
+  for (std::size_t k = 0; k < ids.size(); ++k) {
+    const std::size_t p = ids[k] % s.pixels, j = ids[k] / s.pixels;
+    std::copy_n(&latents[p * L], L, &inputs[k * n]);
+    std::copy_n(&s.directions[j * detail::kDirectionInputs], detail::kDirectionInputs,
+                &inputs[k * n + L]);
+    std::copy_n(&s.targets[std::size_t(ids[k]) * 3], 3, &targets[k * 3]);
+  }
+}
+
+// theta = the network's parameters, then the latents (pixels x L): Adam's one vector.
+std::span<const float> network_of(const Samples& s, std::span<const float> theta) {
+  return theta.first(detail::parameter_count(detail::network_shape(s.shape)));
+}
+std::span<const float> latents_of(const Samples& s, std::span<const float> theta) {
+  return theta.subspan(detail::parameter_count(detail::network_shape(s.shape)));
+}
+
+// The squared error over the held-out samples, in blocks of kValidationBlock (each block on
+// one thread, their errors added in block order: the same sum on any number of threads).
+double validation_error(const Samples& s, std::span<const float> theta) {
+  const std::size_t blocks = (s.validation.size() + kValidationBlock - 1) / kValidationBlock;
+  std::vector<double> errors(blocks, 0.0);
+#pragma omp parallel
+  {
+    omp_set_num_threads(1);
+    std::vector<float> inputs, targets, out;
+#pragma omp for schedule(dynamic, 1)
+    for (std::ptrdiff_t b = 0; b < std::ptrdiff_t(blocks); ++b) {
+      const std::size_t first = std::size_t(b) * kValidationBlock;
+      const auto ids = std::span(s.validation)
+                           .subspan(first, std::min(kValidationBlock, s.validation.size() - first));
+      gather(s, latents_of(s, theta), ids, inputs, targets);
+      out.resize(targets.size());
+      detail::forward(detail::network_shape(s.shape), network_of(s, theta), inputs, out);
+      for (std::size_t i = 0; i < out.size(); ++i)
+        errors[std::size_t(b)] += double(out[i] - targets[i]) * double(out[i] - targets[i]);
+    }
+  }
+  return std::accumulate(errors.begin(), errors.end(), 0.0);
+}
+
+// The held-out RMSE in the data's levels.
+double validation_rmse(const Samples& s, std::span<const float> theta) {
+  const double n = double(std::max<std::size_t>(s.validation.size(), 1)) * 3.0;
+  return std::sqrt(validation_error(s, theta) / n) * double(s.scale);
+}
+
+// The start: the network's initial parameters (He et al. 2015), the latents uniform in
+// [-0.5, 0.5], both from the seed.
+std::vector<float> initial_theta(const Samples& s, std::uint64_t seed) {
+  std::vector<float> theta = detail::initial_parameters(detail::network_shape(s.shape), seed);
+  detail::SplitMix64 draw(seed ^ 0x6c61746e74ULL);
+  for (std::size_t i = 0; i < s.pixels * s.shape.latent; ++i)
+    theta.push_back(float(draw.uniform(-0.5, 0.5)));
+  return theta;
+}
+
+// The minibatch size: about 64 steps an epoch, 128 to 4096 samples.
+std::size_t batch_size(const Samples& s) {
+  return std::clamp<std::size_t>(s.training.size() / 64, 128, 4096);
+}
+
+// One Adam step on the minibatch `ids`: the squared error's gradient (the network's, and each
+// texel's latent's summed over its samples in batch order), divided by the batch's size.
+void adam_step(const Samples& s, std::span<const std::uint32_t> ids, double rate_scale, int threads,
+               Adam<float>& adam) {
+  std::vector<float> inputs, targets;
+  gather(s, latents_of(s, adam.theta), ids, inputs, targets);
+  const detail::SquaredErrorGradient g = detail::squared_error_gradient(
+      detail::network_shape(s.shape), network_of(s, adam.theta), inputs, targets, threads);
+  const std::size_t P = g.parameters.size(), L = s.shape.latent;
+  std::vector<float> grad(adam.theta.size(), 0.0f);
+  std::copy(g.parameters.begin(), g.parameters.end(), grad.begin());
+  for (std::size_t k = 0; k < ids.size(); ++k)
+    for (std::size_t j = 0; j < L; ++j)
+      grad[P + (ids[k] % s.pixels) * L + j] += g.latents[k * L + j];
+  const float inverse = 1.0f / float(ids.size());
+  for (float& v : grad) v *= inverse;
+  const double warm_up = std::min(1.0, double(adam.t + 1) / kWarmUpSteps);
+  const float network_rate = float(kNetworkRate * warm_up * rate_scale),
+              latent_rate = float(kLatentRate * warm_up * rate_scale);
+  adam.step(grad, [&](std::size_t i) { return i < P ? network_rate : latent_rate; });
+}
+
+// The stopping rule on the held-out error, as the mixture's refinement's (refine_gradient.cpp).
+struct Convergence {
+  double best = INFINITY, reference = INFINITY, rate_scale = 1.0;
+  int since_gain = 0, plateaus = 0;
+  bool converged(double e) {
+    best = std::min(best, e);
+    if (e < reference * (1.0 - kMinGain)) {
+      reference = e;
+      since_gain = 0;
+      return false;
+    }
+    if (++since_gain < kPatience) return false;
+    since_gain = 0;
+    reference = best;
+    rate_scale *= 0.5;
+    return ++plateaus >= kPlateaus;
+  }
+};
+
+// The training samples in an order drawn from the seed and the epoch (Fisher-Yates).
+void shuffle_for_epoch(std::vector<std::uint32_t>& ids, std::uint64_t seed, int epoch) {
+  detail::SplitMix64 draw(detail::mix64(seed + 0x9e37ULL * std::uint64_t(epoch + 1)));
+  for (std::size_t i = ids.size(); i > 1; --i)
+    std::swap(ids[i - 1], ids[std::size_t(draw.next() % i)]);
+}
+
+// The parameters of the lowest held-out error met, and that error (levels).
+struct Best {
+  std::vector<float> theta;
+  double rmse = INFINITY;
+};
+
+// The epochs of Adam steps, validated every quarter epoch; the best parameters met.
+Best train(const Samples& s, const FitOptions& o, int epochs) {
+  Adam<float> adam(initial_theta(s, o.seed));
+  Best best{.theta = adam.theta, .rmse = validation_rmse(s, adam.theta)};
+  Convergence rule;
+  std::vector<std::uint32_t> order = s.training;
+  const std::size_t batch = batch_size(s), steps = (order.size() + batch - 1) / batch;
+  const std::size_t every = std::max<std::size_t>(1, steps / 4);
+  for (int epoch = 0; epoch < epochs; ++epoch) {
+    shuffle_for_epoch(order, o.seed, epoch);
+    for (std::size_t k = 0; k < steps; ++k) {
+      const std::size_t first = k * batch;
+      adam_step(s, std::span(order).subspan(first, std::min(batch, order.size() - first)),
+                rule.rate_scale, o.threads, adam);
+      detail::check_stop(o, kMethod);
+      if ((k + 1) % every != 0 && k + 1 != steps) continue;
+      const double rmse = validation_rmse(s, adam.theta);
+      if (rmse < best.rmse) best = {.theta = adam.theta, .rmse = rmse};
+      detail::report(o, (double(epoch) + double(k + 1) / double(steps)) / double(epochs),
+                     fmt::format("epoch {} of {}: held-out RMSE {:.3f} (best {:.3f})", epoch + 1,
+                                 epochs, rmse, best.rmse));
+      if (rule.converged(rmse)) return best;
+    }
+  }
+  return best;
+}
+
+void check_tile(const Btf& tile) {
+  if (tile.data().empty())
+    throw Error(Error::Kind::kArgument, "the neural BTF needs a tile with at least one image");
+  if (tile.data().size() / 3 > std::numeric_limits<std::uint32_t>::max())
+    throw Error(Error::Kind::kArgument,
+                fmt::format("the tile's {} samples are too many for a neural fit; cut a smaller "
+                            "tile (--tile)",
+                            tile.data().size() / 3));
+}
+
+}  // namespace
+
+std::unique_ptr<Representation> fit_neural_btf(const Btf& tile, const FitOptions& o) {
+  const NeuralShape shape = shape_of(o);
+  check_tile(tile);
+  const int epochs = o.iterations > 0 ? o.iterations : kNeuralDefaultEpochs;
+  const FactorEncoding e = stored_encoding(o);
+  const detail::ThreadScope threads(o.threads);
+  detail::report(o, 0.0, "samples and held-out set");
+  const Samples s = samples_of(tile, shape);
+  Best best = train(s, o, epochs);
+  detail::report(o, 1.0, fmt::format("done: held-out RMSE {:.3f}", best.rmse));
+  // Stored as the file stores them: the model in memory evaluates as the one read back.
+  std::vector<float> theta(network_of(s, best.theta).begin(), network_of(s, best.theta).end());
+  detail::quantise_factors(theta, theta.size(), FactorEncoding::kF16);
+  std::vector<float> rows = detail::latent_rows(latents_of(s, best.theta), shape.latent);
+  detail::quantise_factors(rows, s.pixels, e);
+  return std::make_unique<NeuralBtf>(ModelFrame::of(tile), shape, e, s.scale,
+                                     detail::latent_columns(rows, shape.latent), std::move(theta));
+}
+
+}  // namespace btfgmm
