@@ -30,7 +30,7 @@ constexpr std::string_view kMethod = "neural";
 
 // Adam's rates (Kingma & Ba 2015's alpha) for the network's parameters and for the latents,
 // warmed up over the first kWarmUpSteps steps; the validation's blocks of samples.
-constexpr float kNetworkRate = 2e-3f;
+constexpr float kNetworkRate = 5e-3f;
 constexpr float kLatentRate = 1e-2f;
 constexpr int kWarmUpSteps = 20;
 constexpr std::size_t kValidationBlock = 4096;
