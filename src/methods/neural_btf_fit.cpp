@@ -230,6 +230,15 @@ struct Best {
   double rmse = INFINITY;
 };
 
+// The epochs a fit takes at most: `iterations` where given, else kNeuralDefaultEpochs, fewer
+// on a large tile so that they take at most about kNeuralDefaultSteps steps (a bound in work,
+// as the refinement's kDefaultRefineSteps: the same model on any machine at any load).
+int most_epochs(const Samples& s, const FitOptions& o) {
+  if (o.iterations > 0) return o.iterations;
+  const std::size_t steps = (s.training.size() + batch_size(s) - 1) / batch_size(s);
+  return int(std::clamp<std::size_t>(kNeuralDefaultSteps / steps, 1, kNeuralDefaultEpochs));
+}
+
 // The epochs of Adam steps, validated every quarter epoch; the best parameters met.
 Best train(const Samples& s, const FitOptions& o, int epochs) {
   Adam<float> adam(initial_theta(s, o.seed));
@@ -263,8 +272,8 @@ void check_tile(const Btf& tile) {
   if (tile.data().size() / 3 > std::numeric_limits<std::uint32_t>::max())
     throw Error(Error::Kind::kArgument,
                 fmt::format("the tile's {} samples are too many for a neural fit; cut a smaller "
-                            "tile (--tile)",
-                            tile.data().size() / 3));
+                            "tile ({})",
+                            tile.data().size() / 3, option_name("tile")));
 }
 
 }  // namespace
@@ -272,12 +281,11 @@ void check_tile(const Btf& tile) {
 std::unique_ptr<Representation> fit_neural_btf(const Btf& tile, const FitOptions& o) {
   const NeuralShape shape = shape_of(o);
   check_tile(tile);
-  const int epochs = o.iterations > 0 ? o.iterations : kNeuralDefaultEpochs;
   const FactorEncoding e = stored_encoding(o);
   const detail::ThreadScope threads(o.threads);
   detail::report(o, 0.0, "samples and held-out set");
   const Samples s = samples_of(tile, shape);
-  Best best = train(s, o, epochs);
+  Best best = train(s, o, most_epochs(s, o));
   detail::report(o, 1.0, fmt::format("done: held-out RMSE {:.3f}", best.rmse));
   // Stored as the file stores them: the model in memory evaluates as the one read back.
   std::vector<float> theta(network_of(s, best.theta).begin(), network_of(s, best.theta).end());
