@@ -1,9 +1,9 @@
 // The neural BTF as a representation (methods/neural_btf.hpp; Rainer, Jakob, Ghosh & Weyrich
 // 2019): its file read back evaluates bit for bit as the model written, every truncated or
 // damaged payload is refused by name, any changed byte read or refused without a crash, the
-// same file on 1 and 2 threads, a BTF made by a network
-// of known parameters learnt to a stated error, a generated tile fitted above a stated PSNR, a
-// stop honoured, nonsense sizes refused, and the ladder's ratios.
+// same file on 1 and 2 threads, a BTF made by a network of known parameters learnt to a stated
+// error, a generated tile fitted above a stated PSNR, a stop honoured, nonsense sizes refused,
+// and the ladder's ratios.
 #include <gtest/gtest.h>
 
 #include <atomic>
