@@ -46,6 +46,11 @@ void print_candidates(const BudgetChoice& c, std::uint64_t budget) {
   for (const BudgetProbe& p : c.probes)
     fmt::print(stderr, "probe    {} {}: {} bytes, a full fit's predicted at {:.0f}\n", p.method,
                p.settings, p.file_bytes, p.predicted_bytes);
+  for (const PredictedSize& p : c.not_fitted)
+    fmt::print(stderr,
+               "not fit  {} {}: its file predicted at {:.0f} bytes by the line through {} and "
+               "{}, over the budget\n",
+               p.method, p.settings, p.predicted_bytes, p.from, p.to);
   for (const SkippedSetting& s : c.skipped)
     fmt::print(stderr, "skipped  {} {}: {}\n", s.method, s.settings, command_line_text(s.message));
   for (const std::string& m : c.synthesis_methods)
