@@ -46,6 +46,11 @@ void print_candidates(const BudgetChoice& c, std::uint64_t budget) {
   for (const BudgetProbe& p : c.probes)
     fmt::print(stderr, "probe    {} {}: {} bytes, a full fit's predicted at {:.0f}\n", p.method,
                p.settings, p.file_bytes, p.predicted_bytes);
+  for (const PredictedSize& p : c.not_fitted)
+    fmt::print(stderr,
+               "not fit  {} {}: its file predicted at {:.0f} bytes by the line through {} and "
+               "{}, over the budget\n",
+               p.method, p.settings, p.predicted_bytes, p.from, p.to);
   for (const SkippedSetting& s : c.skipped)
     fmt::print(stderr, "skipped  {} {}: {}\n", s.method, s.settings, command_line_text(s.message));
   for (const std::string& m : c.synthesis_methods)
@@ -107,6 +112,11 @@ void run_budget_fit(const FitArguments& o) {
   r.option_spelling = command_line_option;
   r.exhaustive = o.exhaustive;
   double last = 0.0;  // when a fit's progress was last printed
+  // The fit's stage under way and when it began: its time left, at its pace so far, is
+  // (elapsed in it) (1 - fraction) / fraction; its fraction is of the stage's bound (EM's most
+  // iterations, the refinement's most steps), so the stage may end sooner by its rule.
+  std::string stage;
+  double stage_began = 0.0, last_event = 0.0;  // a stage begins at the event before its first
   if (!o.quiet) {
     fmt::print(stderr, "budget {} bytes for the {}x{} tile ({:.0f} data bytes, 1:{:.1f})\n",
                r.budget, tile.width(), tile.height(), ModelFrame::of(tile).data_values(),
@@ -116,10 +126,22 @@ void run_budget_fit(const FitArguments& o) {
       const double now = seconds_since(t0);
       if (p.event == SweepProgress::Event::kStart) {
         fmt::print(stderr, "fitting {} {} ({})\n", p.method, p.settings, human_seconds(now));
-        last = now;
-      } else if (p.event == SweepProgress::Event::kFit && now - last >= 15.0) {
-        fmt::print(stderr, "  {} {}: {} {:.0f}% ({})\n", p.method, p.settings, p.stage,
-                   100.0 * p.fraction, human_seconds(now));
+        last = last_event = now;
+        stage.clear();
+      } else if (p.event == SweepProgress::Event::kFit) {
+        if (p.stage != stage) {
+          stage = p.stage;
+          stage_began = last_event;
+        }
+        last_event = now;
+        if (now - last < 15.0) return;
+        const std::string left =
+            p.fraction >= 0.02 && p.fraction < 1.0
+                ? fmt::format(", about {} left of this stage at its pace",
+                              human_seconds((now - stage_began) * (1.0 - p.fraction) / p.fraction))
+                : std::string();
+        fmt::print(stderr, "  {} {}: {} {:.0f}% ({}{})\n", p.method, p.settings, p.stage,
+                   100.0 * p.fraction, human_seconds(now), left);
         last = now;
       }
     };

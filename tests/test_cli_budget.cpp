@@ -276,6 +276,7 @@ TEST(BudgetCli, QuickSearchFitsOneMixtureNearTheExhaustiveChoice) {
   EXPECT_NE(r.err.find("gm       quick:"), std::string::npos) << r.err;
   EXPECT_NE(r.err.find("probe    gm components"), std::string::npos) << r.err;
   const std::vector<Row> quick = candidates(r.err);
+  const std::string quick_err = r.err;
   std::size_t mixtures = 0;
   const Row* quick_choice = nullptr;
   for (const Row& row : quick) {
@@ -303,6 +304,19 @@ TEST(BudgetCli, QuickSearchFitsOneMixtureNearTheExhaustiveChoice) {
   const double exhaustive_mixture = best_that_fits(exhaustive, "gm");
   EXPECT_GT(exhaustive_mixture, 0.0) << r.err;
   EXPECT_GE(quick_mixture, exhaustive_mixture - 0.3) << r.err;
+  // The other methods: a size whose file the line through two fitted puts well over the budget
+  // is not fitted by the quick search (here PCA BTF's c = 10), and nothing is lost by it: each
+  // method's best that fits is the exhaustive search's, which fitted that size, over the budget.
+  EXPECT_NE(quick_err.find("not fit  pca-btf components 10: its file predicted at"),
+            std::string::npos)
+      << quick_err;
+  EXPECT_EQ(r.err.find("not fit"), std::string::npos) << r.err;
+  bool fitted_over = false;
+  for (const Row& row : exhaustive)
+    fitted_over |= row.method == "pca-btf" && row.size == "c = 10" && row.mark == "over the budget";
+  EXPECT_TRUE(fitted_over) << r.err;
+  for (const char* m : {"pca-btf", "pca-rf", "lpca", "ptm-rf", "plm-rf"})
+    EXPECT_EQ(best_that_fits(quick, m), best_that_fits(exhaustive, m)) << m;
   fs::remove_all(dir);
 }
 

@@ -148,7 +148,7 @@ TEST(Gpu, OneMStepGivesTheCpusParameters) {
 // largest difference of a decoded value (levels), and the RMS errors of the two against the
 // data. `refine`: the default fit, EM then the refinement for the prediction (3 epochs).
 struct DecodedPair {
-  double worst = 0.0, cpu_rmse = 0.0, gpu_rmse = 0.0;
+  double worst = 0.0, difference_rms = 0.0, cpu_rmse = 0.0, gpu_rmse = 0.0;
 };
 DecodedPair fit_both(bool refine) {
   const Btf btf = test::generated_tile("corduroy", 8, 1, "spiral:13", "spiral:11");
@@ -164,9 +164,11 @@ DecodedPair fit_both(bool refine) {
   const double n = double(btf.data().size());
   for (std::size_t i = 0; i < btf.data().size(); ++i) {
     r.worst = std::max(r.worst, double(std::abs(gpu.data()[i] - cpu.data()[i])));
+    r.difference_rms += std::pow(double(gpu.data()[i] - cpu.data()[i]), 2) / n;
     r.cpu_rmse += std::pow(double(cpu.data()[i] - btf.data()[i]), 2) / n;
     r.gpu_rmse += std::pow(double(gpu.data()[i] - btf.data()[i]), 2) / n;
   }
+  r.difference_rms = std::sqrt(r.difference_rms);
   r.cpu_rmse = std::sqrt(r.cpu_rmse);
   r.gpu_rmse = std::sqrt(r.gpu_rmse);
   return r;
@@ -186,11 +188,12 @@ TEST(Gpu, EmOnTheGpuDecodesAsTheCpusWithinATenthOfALevel) {
 TEST(Gpu, TheDefaultFitMeasuresAsTheCpusWithinOnePercent) {
   REQUIRE_DEVICE(device);
   const DecodedPair r = fit_both(true);
-  std::printf("RMSE %.4f on the device, %.4f on the CPU; decoded within %.3f level\n", r.gpu_rmse,
-              r.cpu_rmse, r.worst);
+  std::printf("RMSE %.4f on the device, %.4f on the CPU; decoded within %.3f level (RMS %.4f)\n",
+              r.gpu_rmse, r.cpu_rmse, r.worst, r.difference_rms);
   EXPECT_LT(std::abs(r.gpu_rmse / r.cpu_rmse - 1.0), 0.01)
       << r.gpu_rmse << " against " << r.cpu_rmse;
-  EXPECT_LE(r.worst, 0.5);
+  EXPECT_LE(r.worst, 0.5);            // lavapipe: 0.29 level at most,
+  EXPECT_LE(r.difference_rms, 0.12);  // 0.097 RMS
 }
 
 // M components from seed 3 after `iterations` EM iterations on the CPU.

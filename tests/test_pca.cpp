@@ -158,6 +158,7 @@ TEST(PcaCore, SameBitsWithAnyNumberOfThreads) {
   for (std::size_t above : {500, 2000}) {  // the randomized SVD, the Gram matrix
     detail::PcaSettings s;
     s.randomized_above = above;
+    s.reuse_gram = false;  // each fit computes its own
     auto fit = [&](int threads) {
       const detail::ThreadScope scope(threads);
       detail::Pca p = detail::principal_components(x, rows, cols, c, s);
@@ -176,6 +177,34 @@ TEST(PcaCore, SameBitsWithAnyNumberOfThreads) {
       EXPECT_EQ(one.total_energy, more.total_energy) << threads;
       EXPECT_EQ(w1, w) << threads;
     }
+  }
+}
+
+// The Gram matrix's decomposition kept from the last PCA of the same data (a sweep's fits of
+// several c): the same bits as computed afresh, on both sides, and data changed in place (the
+// same buffer) is decomposed again.
+TEST(PcaCore, AKeptGramMatrixGivesTheSameBits) {
+  for (const auto& [rows, cols] : {std::pair<std::size_t, std::size_t>{300, 120}, {90, 260}}) {
+    std::vector<float> x = structured_matrix(rows, cols, 6, 1.0, 21);
+    auto pca = [&](std::size_t c, bool reuse) {
+      detail::PcaSettings s;
+      s.reuse_gram = reuse;
+      return detail::principal_components(x, rows, cols, c, s);
+    };
+    auto expect_same = [](const detail::Pca& a, const detail::Pca& b) {
+      EXPECT_EQ(a.directions, b.directions);
+      EXPECT_EQ(a.coordinates, b.coordinates);
+      EXPECT_EQ(a.singular_values, b.singular_values);
+      EXPECT_EQ(a.total_energy, b.total_energy);
+      EXPECT_EQ(a.discarded_energy, b.discarded_energy);
+    };
+    const detail::Pca fresh = pca(3, false);
+    pca(7, true);  // kept
+    expect_same(pca(3, true), fresh);
+    x[5] += 50.0f;  // the same buffer, other data
+    const detail::Pca changed = pca(3, true);
+    expect_same(changed, pca(3, false));
+    EXPECT_NE(changed.singular_values, fresh.singular_values);
   }
 }
 

@@ -5,8 +5,11 @@
 #include <algorithm>
 #include <cassert>
 #include <cmath>
+#include <memory>
+#include <mutex>
 #include <type_traits>
 
+#include "btfgmm/model/provenance.hpp"
 #include "core/eigen_dense.hpp"
 #include "core/random.hpp"
 #include "methods/pca_methods.hpp"
@@ -272,15 +275,62 @@ MatD complete_basis(const MatD& v, std::size_t c, std::uint64_t seed) {
   return orthonormal_columns(w);
 }
 
-// The top c right singular vectors (cols x c) from the Gram matrix of the smaller side.
-MatD gram_directions(const CentredData& d, std::size_t c, const PcaSettings& s, Pca& p) {
-  if (d.rows() > d.cols()) {
-    const Eigenpairs e = descending_eigenpairs(column_gram(d, p.total_energy));
-    p.singular_values.assign(e.values.begin(), e.values.end());
-    return e.vectors.leftCols(Eigen::Index(c));
+// The eigenpairs of the Gram matrix of the smaller side, and |Xc|².
+struct GramDecomposition {
+  Eigenpairs pairs;
+  double total_energy = 0.0;
+};
+
+// What a Gram matrix was made of: the data's content hash (provenance.hpp), its shape and
+// whether it was centred.
+struct GramKey {
+  std::uint64_t content = 0;
+  std::size_t rows = 0, cols = 0;
+  bool centre = false;
+  bool operator==(const GramKey&) const = default;
+};
+
+// The side of the largest Gram matrix kept by gram_decomposition: 2048² doubles, 32 MiB.
+constexpr std::size_t kMostKeptSide = 2048;
+
+// The Gram matrix of the smaller side (Xcᵀ Xc when rows > cols, Xc Xcᵀ otherwise)
+// decomposed. The last decomposition of a side up to kMostKeptSide is kept for the next PCA of
+// the same data: a sweep or a budget fits PCA BTF at several c on one tile, and the Gram
+// matrix and its eigenpairs, most of such a fit's time, do not depend on c. What is kept is
+// what would be computed again, so every result is the same bit for bit; it costs one pass
+// over the data (its hash) and holds at most 32 MiB until a PCA of other data replaces it.
+std::shared_ptr<const GramDecomposition> gram_decomposition(const CentredData& d,
+                                                            std::span<const float> x,
+                                                            const PcaSettings& s) {
+  static std::mutex mutex;
+  static GramKey kept_key;
+  static std::shared_ptr<const GramDecomposition> kept;
+  const bool keep = s.reuse_gram && std::min(d.rows(), d.cols()) <= kMostKeptSide;
+  GramKey key;
+  if (keep) {
+    key = {content_hash_add(kContentHashBasis, x), d.rows(), d.cols(), s.centre};
+    const std::lock_guard lock(mutex);
+    if (kept && kept_key == key) return kept;
   }
-  const Eigenpairs e = descending_eigenpairs(row_gram(d, p.total_energy));
+  auto g = std::make_shared<GramDecomposition>();
+  g->pairs = descending_eigenpairs(d.rows() > d.cols() ? column_gram(d, g->total_energy)
+                                                       : row_gram(d, g->total_energy));
+  if (keep) {
+    const std::lock_guard lock(mutex);
+    kept_key = key;
+    kept = g;
+  }
+  return g;
+}
+
+// The top c right singular vectors (cols x c) from the Gram matrix of the smaller side.
+MatD gram_directions(const CentredData& d, std::span<const float> x, std::size_t c,
+                     const PcaSettings& s, Pca& p) {
+  const std::shared_ptr<const GramDecomposition> g = gram_decomposition(d, x, s);
+  const Eigenpairs& e = g->pairs;
+  p.total_energy = g->total_energy;
   p.singular_values.assign(e.values.begin(), e.values.end());
+  if (d.rows() > d.cols()) return e.vectors.leftCols(Eigen::Index(c));
   const Eigen::Index k = std::min(Eigen::Index(c), e.values.size());
   // Xcᵀ u_i = s_i v_i: normalised (and re-orthogonalised) by the QR.
   return complete_basis(transpose_times(d, MatD(e.vectors.leftCols(k))), c, s.seed);
@@ -332,7 +382,7 @@ Pca principal_components(std::span<const float> x, std::size_t rows, std::size_t
   p.components = components;
   const MatD v = use_randomized(rows, cols, components, s)
                      ? randomized_directions(d, components, s, p)
-                     : gram_directions(d, components, s, p);
+                     : gram_directions(d, x, components, s, p);
   for (double& sv : p.singular_values) sv = std::sqrt(sv);
   const MatD w = times(d, v);  // in double
   if (p.randomized) {

@@ -25,6 +25,10 @@ struct PcaSettings {
   // Both sides above this (and c well below them): the randomized SVD.
   std::size_t randomized_above = 2000;
   int power_iterations = 4;
+  // The Gram matrix's eigen-decomposition of the last PCA of the same data (its content, shape
+  // and centring) reused, when its side is at most 2048: the same bits as computing it again,
+  // at the cost of a hash of the data and at most 32 MiB held until other data replaces it.
+  bool reuse_gram = true;
 };
 
 struct Pca {

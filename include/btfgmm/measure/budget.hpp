@@ -10,7 +10,9 @@
 // does not (below the smallest rung: down to a size of 1; above the largest, when it fits: up
 // to the first size over the budget or refused for the tile) searched by predicting a size's
 // bytes from the two nearest fitted and confirming with the real file (size_search.hpp), every
-// setting fitted and measured as run_sweep does. Then the candidate that fits with the highest
+// setting fitted and measured as run_sweep does, but for sizes whose bytes the line through
+// two sizes fitted puts more than 5 % over the budget (not fitted, listed as not_fitted;
+// `exhaustive` fits them). Then the candidate that fits with the highest
 // PSNR on the tile is kept. `btfgmm fit --budget` and `--ratio` format what
 // choose_within_budget returns.
 #pragma once
@@ -68,9 +70,18 @@ struct BudgetProbe {
   double predicted_bytes = 0.0;  // the full fit's, as the probe predicts them
 };
 
+// A size not fitted (but with `exhaustive`): the line through two sizes of its method fitted
+// (`from` and `to`, their settings) puts its file well over the budget.
+struct PredictedSize {
+  std::string method, settings;
+  double predicted_bytes = 0.0;
+  std::string from, to;
+};
+
 struct BudgetChoice {
   std::vector<BudgetCandidate> candidates;  // every setting fitted, in the order fitted
   std::vector<BudgetProbe> probes;          // in the order fitted
+  std::vector<PredictedSize> not_fitted;    // in the order predicted
   std::vector<SkippedSetting> skipped;      // settings a method refused for the tile
   // Methods left out: they synthesise new texture, which no pixel-wise PSNR measures.
   std::vector<std::string> synthesis_methods;
