@@ -47,15 +47,15 @@ std::unique_ptr<Representation> fit_gaussian_mixture(const Btf& tile, const FitO
 // a probe is EM's first kProbeIterations iterations alone (the likelihood objective), whose
 // file's components take about 1 / kProbeBytesRatio of the bytes of the same M's fitted as the
 // search fits its choice: at most kBudgetIterations EM iterations (unless `iterations` is given),
-// then the refinement for the prediction as by default. On generated knit 25 x 25 at M = 1964,
-// 3 EM iterations before the refinement gave 28.69 dB and 6 gave 28.56 (at M = 1998: 6 gave
-// 28.65, 12 gave 27.70), and the default 40 gave 26.50 at M = 1919, the same bytes
-// (docs/BENCHMARKS.md). The search brings a file over the
+// then the refinement for the prediction as by default. On generated knit 25 x 25 at M = 1998,
+// 6 EM iterations before the refinement gave 28.65 dB, 12 gave 27.70, and the default 40 gave
+// 26.50 at M = 1919, the same bytes; 3 gave 0.13 dB more than 6 there, but less on 12 x 12
+// tiles (docs/BENCHMARKS.md). The search brings a file over the
 // budget within it by coarser steps (coarsened_mixture), so an error of a few percent in the
 // ratio costs no refit.
 inline constexpr int kProbeIterations = 1;
 inline constexpr double kProbeBytesRatio = 1.15;
-inline constexpr int kBudgetIterations = 3;
+inline constexpr int kBudgetIterations = 6;
 FitOptions mixture_byte_probe(const FitOptions& s);
 FitOptions mixture_budget_choice(FitOptions s, std::span<const std::string_view> given);
 
