@@ -223,8 +223,9 @@ class MethodSearch {
     };
   }
 
-  // `s`, not fitted, when the line through `a` and `b` (sizes fitted, differing in the size
-  // `s` differs from `b` in) puts its file more than kPredictedOverMargin over the budget:
+  // `s`, not fitted, when the line through `a` and `b` (sizes fitted, or `b` a size this
+  // predicted on their line; differing in the size `s` differs from `b` in) puts its file
+  // more than kPredictedOverMargin over the budget:
   // recorded with the bytes predicted. None with --exhaustive or otherwise.
   std::optional<Probe> predicted_over(const Probe& a, const Probe& b, const FitOptions& s) {
     const SizeField f = varying_size(a.settings, b.settings);

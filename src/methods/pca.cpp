@@ -52,6 +52,7 @@ class CentredData {
         mean_(centre ? column_means(x_) : Eigen::RowVectorXd::Zero(Eigen::Index(cols))),
         mean_f_(mean_.cast<float>()) {}
 
+  std::span<const float> data() const { return {x_.data(), std::size_t(x_.size())}; }
   std::size_t rows() const { return std::size_t(x_.rows()); }
   std::size_t cols() const { return std::size_t(x_.cols()); }
   const Eigen::RowVectorXd& mean() const { return mean_; }
@@ -300,7 +301,6 @@ constexpr std::size_t kMostKeptSide = 2048;
 // what would be computed again, so every result is the same bit for bit; it costs one pass
 // over the data (its hash) and holds at most 32 MiB until a PCA of other data replaces it.
 std::shared_ptr<const GramDecomposition> gram_decomposition(const CentredData& d,
-                                                            std::span<const float> x,
                                                             const PcaSettings& s) {
   static std::mutex mutex;
   static GramKey kept_key;
@@ -308,7 +308,7 @@ std::shared_ptr<const GramDecomposition> gram_decomposition(const CentredData& d
   const bool keep = s.reuse_gram && std::min(d.rows(), d.cols()) <= kMostKeptSide;
   GramKey key;
   if (keep) {
-    key = {content_hash_add(kContentHashBasis, x), d.rows(), d.cols(), s.centre};
+    key = {content_hash_add(kContentHashBasis, d.data()), d.rows(), d.cols(), s.centre};
     const std::lock_guard lock(mutex);
     if (kept && kept_key == key) return kept;
   }
@@ -324,9 +324,8 @@ std::shared_ptr<const GramDecomposition> gram_decomposition(const CentredData& d
 }
 
 // The top c right singular vectors (cols x c) from the Gram matrix of the smaller side.
-MatD gram_directions(const CentredData& d, std::span<const float> x, std::size_t c,
-                     const PcaSettings& s, Pca& p) {
-  const std::shared_ptr<const GramDecomposition> g = gram_decomposition(d, x, s);
+MatD gram_directions(const CentredData& d, std::size_t c, const PcaSettings& s, Pca& p) {
+  const std::shared_ptr<const GramDecomposition> g = gram_decomposition(d, s);
   const Eigenpairs& e = g->pairs;
   p.total_energy = g->total_energy;
   p.singular_values.assign(e.values.begin(), e.values.end());
@@ -382,7 +381,7 @@ Pca principal_components(std::span<const float> x, std::size_t rows, std::size_t
   p.components = components;
   const MatD v = use_randomized(rows, cols, components, s)
                      ? randomized_directions(d, components, s, p)
-                     : gram_directions(d, x, components, s, p);
+                     : gram_directions(d, components, s, p);
   for (double& sv : p.singular_values) sv = std::sqrt(sv);
   const MatD w = times(d, v);  // in double
   if (p.randomized) {
