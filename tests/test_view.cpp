@@ -17,6 +17,7 @@
 #include "btfgmm/io/image.hpp"
 #include "btfgmm/methods/gaussian_mixture.hpp"
 #include "btfgmm/methods/lpca.hpp"
+#include "btfgmm/methods/neural_btf.hpp"
 #include "btfgmm/methods/pca_btf.hpp"
 #include "btfgmm/methods/pca_rf.hpp"
 #include "btfgmm/methods/plm_rf.hpp"
@@ -100,11 +101,9 @@ TEST(Shader, ParameterFileRoundTripsAndRefusesTruncation) {
 
 TEST(Shader, EveryMethodHasAGenerator) {
   // The texture models synthesise new texture from a seed (their predict runs a synthesis per
-  // subspace): no per-pixel shader; export-shader and view refuse them by name. The neural
-  // BTF has no shader yet (its network would be a shader of its own): refused by name too.
+  // subspace): no per-pixel shader; export-shader and view refuse them by name.
   for (const MethodInfo& m : all_methods()) {
-    if (m.name == "3d-car" || m.name == "2d-car" || m.name == "gmrf" || m.name == "neural")
-      continue;
+    if (m.name == "3d-car" || m.name == "2d-car" || m.name == "gmrf") continue;
     bool found = false;
     for (const ShaderGenerator& g : shader_generators()) found = found || g.method == m.name;
     EXPECT_TRUE(found) << m.name;
@@ -308,6 +307,13 @@ TEST(Browser, ViewPageAndExportedShaderMatchTheCpuRender) {
   pl.degree = 2;
   pl.iterations = 5;
   save_representation(*fit_plm_rf(tile, pl), plm_path);
+  const std::string neural_path = (d / "knit-neural.btfgmm").string();
+  FitOptions nn;
+  nn.components = 5;  // two groups of four in the shader, the second padded
+  nn.width = 10;
+  nn.depth = 2;
+  nn.iterations = 3;
+  save_representation(*fit_neural_btf(tile, nn), neural_path);
 
   auto cli = [&](const std::string& args) {
     const auto r = test::run_cli(args, "browser");
@@ -319,8 +325,9 @@ TEST(Browser, ViewPageAndExportedShaderMatchTheCpuRender) {
   cli(fmt::format("render {} {} -q -o {}/cpu-ptm.png", ptm_path, kScene, d.string()));
   cli(fmt::format("render {} {} -q -o {}/cpu-lpca.png", lpca_path, kScene, d.string()));
   cli(fmt::format("render {} {} -q -o {}/cpu-plm.png", plm_path, kScene, d.string()));
-  cli(fmt::format("view {} {} {} {} {} {} -q -o {}/page", model_path, pca_path, pca_rf_path,
-                  ptm_path, lpca_path, plm_path, d.string()));
+  cli(fmt::format("render {} {} -q -o {}/cpu-neural.png", neural_path, kScene, d.string()));
+  cli(fmt::format("view {} {} {} {} {} {} {} -q -o {}/page", model_path, pca_path, pca_rf_path,
+                  ptm_path, lpca_path, plm_path, neural_path, d.string()));
   cli(fmt::format("export-shader {} --glsl -q -o {}/page/knit.glsl", model_path, d.string()));
 
   // A second model on the page, read back from export-shader's two files.
@@ -342,14 +349,14 @@ TEST(Browser, ViewPageAndExportedShaderMatchTheCpuRender) {
   ASSERT_FALSE(out.empty()) << slurp(d / "browser.log");
   ASSERT_EQ(out.rfind("error", 0), std::string::npos) << out;
   // The page's models in order: the mixture, PCA BTF, PCA RF, PTM RF, LPCA, PLM RF, the
-  // mixture from the exported files.
+  // neural BTF, the mixture from the exported files.
   std::vector<std::string> images;
   for (std::size_t start = 0; start < out.size();) {
     const std::size_t end = std::min(out.find('\n', start), out.size());
     images.push_back(out.substr(start, end - start));
     start = end + 1;
   }
-  ASSERT_EQ(images.size(), 7u);
+  ASSERT_EQ(images.size(), 8u);
   const double psnr = psnr_against(images[0], read_image(d / "cpu.png"));
   const double psnr_pca = psnr_against(images[1], read_image(d / "cpu-pca.png"));
   EXPECT_GE(psnr, 40.0);
@@ -362,11 +369,13 @@ TEST(Browser, ViewPageAndExportedShaderMatchTheCpuRender) {
   EXPECT_GE(psnr_lpca, 40.0);
   const double psnr_plm = psnr_against(images[5], read_image(d / "cpu-plm.png"));
   EXPECT_GE(psnr_plm, 40.0);
-  EXPECT_EQ(images[6], images[0]) << "the exported files render other pixels than the page";
+  const double psnr_neural = psnr_against(images[6], read_image(d / "cpu-neural.png"));
+  EXPECT_GE(psnr_neural, 40.0);
+  EXPECT_EQ(images[7], images[0]) << "the exported files render other pixels than the page";
   std::printf(
       "browser against CPU: PSNR %.2f dB (gm), %.2f dB (pca-btf), %.2f dB (pca-rf), %.2f dB "
-      "(ptm-rf), %.2f dB (lpca), %.2f dB (plm-rf)\n",
-      psnr, psnr_pca, psnr_rf, psnr_ptm, psnr_lpca, psnr_plm);
+      "(ptm-rf), %.2f dB (lpca), %.2f dB (plm-rf), %.2f dB (neural)\n",
+      psnr, psnr_pca, psnr_rf, psnr_ptm, psnr_lpca, psnr_plm, psnr_neural);
   if (!HasFailure()) fs::remove_all(d);
 }
 #endif

@@ -20,6 +20,7 @@ std::span<const ShaderGenerator> shader_generators() {
       {"gm", detail::mixture_shader},    {"pca-btf", detail::pca_btf_shader},
       {"pca-rf", detail::pca_rf_shader}, {"lpca", detail::lpca_shader},
       {"ptm-rf", detail::ptm_rf_shader}, {"plm-rf", detail::plm_rf_shader},
+      {"neural", detail::neural_shader},
   };
   return generators;
 }

@@ -76,5 +76,6 @@ ShaderExport pca_rf_shader(const Representation& model);   // shader_pca_rf.cpp
 ShaderExport ptm_rf_shader(const Representation& model);   // shader_ptm_rf.cpp
 ShaderExport lpca_shader(const Representation& model);     // shader_lpca.cpp
 ShaderExport plm_rf_shader(const Representation& model);   // shader_plm_rf.cpp
+ShaderExport neural_shader(const Representation& model);   // shader_neural.cpp
 
 }  // namespace btfgmm::detail

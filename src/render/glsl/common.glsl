@@ -31,6 +31,25 @@ vec2 btf_tile_position(vec2 uv) {
   return vec2(p.x < 0.0 || p.x >= BTF_TILE.x ? 0.0 : p.x, p.y < 0.0 || p.y >= BTF_TILE.y ? 0.0 : p.y);
 }
 
+// The four pixels around a tile position and their bilinear weights (integer positions at
+// pixel centres, the tile wraps).
+struct BtfBilinear {
+  ivec4 pixel;    // the four nearest pixels' indices: (x0, y0), (x1, y0), (x0, y1), (x1, y1)
+  vec4 weight;
+};
+
+BtfBilinear btf_bilinear(vec2 uv) {
+  vec2 xy = btf_tile_position(uv);
+  ivec2 tile = ivec2(BTF_TILE);
+  ivec2 a = ivec2(floor(xy)) % tile;
+  ivec2 b = (a + 1) % tile;
+  vec2 f = xy - floor(xy);
+  BtfBilinear r;
+  r.pixel = ivec4(a.y * tile.x + a.x, a.y * tile.x + b.x, b.y * tile.x + a.x, b.y * tile.x + b.x);
+  r.weight = vec4((1.0 - f.x) * (1.0 - f.y), f.x * (1.0 - f.y), (1.0 - f.x) * f.y, f.x * f.y);
+  return r;
+}
+
 // The signed onion-slice angles (alpha, beta) of a direction in radians
 // (core/directions.hpp): alpha = atan2(y, z), beta = asin(x).
 vec2 btf_onion_slice(vec3 d) {

@@ -5,23 +5,6 @@
 // weights (3 lights x 3 views: btf_direction_weights). An image is W H texels (r, g, b, -),
 // row-major.
 
-struct BtfBilinear {
-  ivec4 pixel;    // the four nearest pixels' indices: (x0, y0), (x1, y0), (x0, y1), (x1, y1)
-  vec4 weight;
-};
-
-BtfBilinear btf_bilinear(vec2 uv) {
-  vec2 xy = btf_tile_position(uv);
-  ivec2 tile = ivec2(BTF_TILE);
-  ivec2 a = ivec2(floor(xy)) % tile;
-  ivec2 b = (a + 1) % tile;
-  vec2 f = xy - floor(xy);
-  BtfBilinear r;
-  r.pixel = ivec4(a.y * tile.x + a.x, a.y * tile.x + b.x, b.y * tile.x + a.x, b.y * tile.x + b.x);
-  r.weight = vec4((1.0 - f.x) * (1.0 - f.y), f.x * (1.0 - f.y), (1.0 - f.x) * f.y, f.x * f.y);
-  return r;
-}
-
 // The image that begins at texel `image`, at the position of `b`.
 vec3 btf_image_at(int image, BtfBilinear b) {
   vec3 rgb = vec3(0.0);
