@@ -115,6 +115,25 @@ TEST(NeuralBtf, PredictAtTexelsIsDecode) {
   for (std::size_t i = 0; i < rgb.size(); ++i) EXPECT_EQ(rgb[i], d.image(5, 3)[i]) << i;
 }
 
+// A query's answer is the same bits alone, among 40 or among 1,100 (the blocks of the forward
+// pass padded: Eigen's product for one sample would sum in another order).
+TEST(NeuralBtf, AQuerysAnswerDoesNotDependOnTheQueriesBesideIt) {
+  const auto model = fit(small_tile("knit", 8), neural_options(2));
+  std::vector<Query> many;
+  for (int k = 0; k < 28; ++k)
+    for (const Query& q : mixed_queries()) many.push_back(q);
+  many.resize(1100);
+  const auto forty = predicted(*model, mixed_queries()), all = predicted(*model, many);
+  for (const std::size_t i : {0, 1, 17, 39}) {
+    const auto one = predicted(*model, {mixed_queries()[i]});
+    for (const std::size_t j : {i, 40 * 25 + i, 40 * 26 + i})  // the second block too
+      for (int c = 0; c < 3; ++c) {
+        EXPECT_EQ(one[c], all[3 * j + c]) << i << " at " << j;
+        EXPECT_EQ(one[c], forty[3 * i + c]) << i;
+      }
+  }
+}
+
 TEST(NeuralBtf, TruncatedOrDamagedPayloadsAreRefusedByName) {
   const auto model = fit(small_tile("knit", 8), neural_options(1));
   const auto payload = model->payload();
@@ -233,17 +252,30 @@ TEST(NeuralBtf, FitsAGeneratedTileAboveAStatedPsnr) {
   EXPECT_GT(psnr, 26.5);  // 27.9 dB measured
 }
 
-TEST(NeuralBtf, AStopIsHonoured) {
-  std::atomic<bool> stop{false};
-  FitOptions s = neural_options(50);
-  int reports = 0;
-  s.stop = &stop;
-  s.progress = [&](double, std::string_view) {
-    if (++reports == 3) stop = true;
+// A stop ends the fit at the next step with the lowest held-out error met, which the model's
+// provenance says; with the stop at the same report, the same model.
+TEST(NeuralBtf, AStopKeepsTheBestModelMetAndSaysSo) {
+  const Btf tile = small_tile("knit", 8);
+  auto stopped_fit = [&](int at) {
+    std::atomic<bool> stop{false};
+    FitOptions s = neural_options(50);
+    int reports = 0;
+    s.stop = &stop;
+    s.progress = [&](double, std::string_view) {
+      if (++reports == at) stop = true;
+    };
+    auto m = fit_neural_btf(tile, s);
+    EXPECT_EQ(reports, at);  // none after the stop
+    return m;
   };
-  const std::string e = test::error_of([&] { fit(small_tile("knit", 8), s); });
-  EXPECT_NE(e.find("stopped"), std::string::npos) << e;
-  EXPECT_LE(reports, 4);
+  const auto a = stopped_fit(3), b = stopped_fit(3);
+  const auto& settings = a->provenance().fit.settings;
+  ASSERT_EQ(settings.size(), 1u);
+  EXPECT_EQ(settings[0].first, kStoppedSetting);
+  EXPECT_NE(settings[0].second.find("in epoch 1 of 50"), std::string::npos) << settings[0].second;
+  EXPECT_EQ(representation_file_bytes(*a), representation_file_bytes(*b));
+  // A whole fit records no stop.
+  EXPECT_TRUE(fit_neural_btf(tile, neural_options(1))->provenance().fit.settings.empty());
 }
 
 TEST(NeuralBtf, NonsenseSizesAreRefused) {
@@ -273,6 +305,11 @@ TEST(NeuralBtf, TheLadderSpans100To3000) {
   EXPECT_GT(ratio(ladder.front()), 2000.0);
   EXPECT_LT(ratio(ladder.back()), 150.0);
   for (std::size_t i = 1; i < ladder.size(); ++i) EXPECT_LT(ratio(ladder[i]), ratio(ladder[i - 1]));
+  // The top two rungs differ in L alone: the size the budget's quick search varies.
+  const FitOptions &a = ladder[ladder.size() - 2], &b = ladder.back();
+  EXPECT_LT(a.components, b.components);
+  EXPECT_EQ(a.width, b.width);
+  EXPECT_EQ(a.depth, b.depth);
 }
 
 }  // namespace

@@ -37,7 +37,10 @@ def work(tmp_path_factory):
     pca = str(d / "cli-pca.btfgmm")
     cli("fit", btf, "--tile", "1,2,6,5", "--method", "pca-btf", "--components", 3,
         "--threads", 2, "-q", "-o", pca)
-    return {"dir": d, "btf": btf, "gm": gm, "pca": pca}
+    neural = str(d / "cli-neural.btfgmm")
+    cli("fit", btf, "--tile", "0,0,6,6", "--method", "neural", "--components", 3, "--width", 8,
+        "--iterations", 2, "--seed", 4, "--threads", 1, "-q", "-o", neural)
+    return {"dir": d, "btf": btf, "gm": gm, "pca": pca, "neural": neural}
 
 
 def random_queries(rng, n):
@@ -50,7 +53,7 @@ def random_queries(rng, n):
     return q
 
 
-@pytest.mark.parametrize("which", ["gm", "pca"])
+@pytest.mark.parametrize("which", ["gm", "pca", "neural"])
 def test_eval_equals_the_command(work, which):
     model = btfgmm.load(work[which])
     q = random_queries(np.random.default_rng(11), 4)
@@ -137,6 +140,17 @@ def test_fit_of_another_method_equals_the_command(work, tmp_path):
     model.save(out)
     assert open(out, "rb").read() == open(work["pca"], "rb").read()
     assert model.method == "pca-btf" and model.parameters == btfgmm.load(work["pca"]).parameters
+
+
+def test_a_neural_fit_equals_the_command_on_other_threads(work, tmp_path):
+    # The command fitted it on 1 thread; the module on 2 writes the same bytes.
+    data = btfgmm.read_btf(work["btf"], tile="0,0,6,6")
+    model = btfgmm.fit(data, method="neural", components=3, width=8, iterations=2, seed=4,
+                       threads=2)
+    out = tmp_path / "py-neural.btfgmm"
+    model.save(out)
+    assert open(out, "rb").read() == open(work["neural"], "rb").read()
+    assert model.method == "neural" and model.size == "L = 3, 2 x 8"
 
 
 def test_fit_takes_the_objective_and_the_pyramid_levels(work, tmp_path):

@@ -63,24 +63,43 @@ void check_queries(std::span<const Query> queries, std::span<float> rgb) {
   }
 }
 
-// Queries first .. first + count - 1: their inputs, one forward pass, the outputs scaled.
+// The network's outputs (samples x 3) for `inputs` (samples x input_size), in blocks of
+// exactly kQueryBlock samples, the last padded with zeros: Eigen's product then takes one path
+// for every block (where one sample alone would take the matrix-vector one, and another sum
+// order), so a sample's output is the same bits whatever the samples beside it, as a query's
+// answer must be (the same from eval, predict, decode and render).
+void forward_in_blocks(const detail::NetworkShape& shape, std::span<const float> theta,
+                       std::span<const float> inputs, float* out) {
+  const std::size_t n = detail::input_size(shape), samples = inputs.size() / n;
+  std::vector<float> block(kQueryBlock * n), y(kQueryBlock * detail::kNetworkOutputs);
+  for (std::size_t first = 0; first < samples; first += kQueryBlock) {
+    const std::size_t count = std::min(kQueryBlock, samples - first);
+    std::fill(std::copy_n(&inputs[first * n], count * n, block.begin()), block.end(), 0.0f);
+    detail::forward(shape, theta, block, y);
+    std::copy_n(y.begin(), count * detail::kNetworkOutputs, out + first * detail::kNetworkOutputs);
+  }
+}
+
+// Queries first .. first + count - 1 (count <= kQueryBlock): their inputs, one forward pass,
+// the outputs scaled.
 void predict_block(const NeuralBtf& m, std::span<const Query> queries, std::size_t first,
                    std::size_t count, float* rgb) {
   const detail::NetworkShape shape = detail::network_shape(m.shape());
   const std::size_t n = detail::input_size(shape), L = shape.latent;
-  std::vector<float> inputs(count * n), out(count * detail::kNetworkOutputs);
+  std::vector<float> inputs(count * n);
   for (std::size_t k = 0; k < count; ++k) {
     const Query& q = queries[first + k];
     bilinear_latent(m, q.x, q.y, &inputs[k * n]);
     detail::encode_directions(to_vector(q.light), to_vector(q.view),
                               std::span(inputs).subspan(k * n + L, detail::kDirectionInputs));
   }
-  detail::forward(shape, m.network_parameters(), inputs, out);
-  for (std::size_t i = 0; i < out.size(); ++i) rgb[first * 3 + i] = out[i] * m.scale();
+  float* out = rgb + first * 3;
+  forward_in_blocks(shape, m.network_parameters(), inputs, out);
+  for (std::size_t i = 0; i < count * 3; ++i) out[i] *= m.scale();
 }
 
 // One decoded image, pair (light, view) at width x height pixels: the texels' own latents
-// (the tile repeated), one forward pass.
+// (the tile repeated), forward in blocks.
 void decode_image(const NeuralBtf& m, const Direction& light, const Direction& view, int width,
                   int height, float* rgb) {
   const detail::NetworkShape shape = detail::network_shape(m.shape());
@@ -98,8 +117,7 @@ void decode_image(const NeuralBtf& m, const Direction& light, const Direction& v
       std::copy_n(&m.latents()[p * L], L, row);
       std::copy_n(directions, detail::kDirectionInputs, row + L);
     }
-  detail::forward(shape, m.network_parameters(), inputs,
-                  std::span(rgb, pixels * detail::kNetworkOutputs));
+  forward_in_blocks(shape, m.network_parameters(), inputs, rgb);
   for (std::size_t i = 0; i < pixels * detail::kNetworkOutputs; ++i) rgb[i] *= m.scale();
 }
 
@@ -244,10 +262,15 @@ std::unique_ptr<Representation> read_neural_btf(std::span<const std::uint8_t> pa
 }
 
 std::vector<FitOptions> neural_btf_ladder(const ModelFrame& frame) {
-  // Candidate shapes, then for each ratio the nearest candidate (in log ratio), each once.
+  // Candidate shapes, then for each ratio the nearest candidate (in log ratio), each once:
+  // below the default width, smaller networks of a short latent; from it, longer latents at
+  // the default network, so that the ladder's top rungs differ in L alone (the budget's quick
+  // search varies that size).
   std::vector<NeuralShape> shapes;
-  for (std::size_t latent : {2, 4, 8, 16, 32})
-    for (std::size_t width : {16, 32, 64, 128, 256}) shapes.push_back({latent, width, 2});
+  for (std::size_t width : {8, 16, 32}) shapes.push_back({2, width, kNeuralDefaultDepth});
+  for (std::size_t width : {16, 32}) shapes.push_back({4, width, kNeuralDefaultDepth});
+  for (std::size_t latent : {2, 4, 8, 16, 32, 64, 128})
+    shapes.push_back({latent, kNeuralDefaultWidth, kNeuralDefaultDepth});
   std::vector<std::size_t> chosen;
   for (double target : {3000.0, 1600.0, 800.0, 400.0, 200.0, 100.0}) {
     std::size_t best = 0;
@@ -272,6 +295,25 @@ std::vector<FitOptions> neural_btf_ladder(const ModelFrame& frame) {
     s.depth = shapes[i].depth;
     out.push_back(s);
   }
+  return out;
+}
+
+FitOptions neural_byte_probe(const FitOptions& s) {
+  FitOptions probe = s;
+  probe.iterations = kNeuralProbeEpochs;
+  return probe;
+}
+
+std::unique_ptr<Representation> neural_without_latents(const Representation& model) {
+  const auto* m = dynamic_cast<const NeuralBtf*>(&model);
+  if (!m)
+    throw Error(Error::Kind::kArgument,
+                fmt::format("a {} model is not a neural BTF", model.method()));
+  auto out = std::make_unique<NeuralBtf>(
+      m->frame(), m->shape(), m->encoding(), m->scale(),
+      std::vector<float>(m->latents().size(), 0.0f),
+      std::vector<float>(m->network_parameters().begin(), m->network_parameters().end()));
+  out->set_provenance(m->provenance());
   return out;
 }
 
