@@ -17,6 +17,7 @@
 #include "fit_command.hpp"
 #include "mpi_processes.hpp"
 #include "parameter_options.hpp"
+#include "stop_signals.hpp"
 #include "tile_option.hpp"
 
 namespace btfgmm::cli {
@@ -37,6 +38,14 @@ namespace {
 
 // ---- fit --method: any other method ------------------------------------------------------
 
+// Where a fit stopped by the user kept its best model met (provenance.hpp, kStoppedSetting):
+// the note it recorded; empty for a whole fit.
+std::string stopped_note(const btfgmm::Representation& r) {
+  for (const auto& [name, value] : r.provenance().fit.settings)
+    if (name == btfgmm::kStoppedSetting) return value;
+  return {};
+}
+
 void run_method_fit(const FitArguments& o) {
   if (o.input.empty() || o.out.empty())
     throw Error(Error::Kind::kArgument, "fit needs an input BTF and -o MODEL");
@@ -52,10 +61,32 @@ void run_method_fit(const FitArguments& o) {
       fmt::print(stderr, "{} {:>5.1f}%  {}\n", o.options.method, 100.0 * fraction, stage);
     };
   }
-  const std::unique_ptr<btfgmm::Representation> r =
-      btfgmm::fit_representation(o.options, o.input, std::move(src), tile, progress);
+  progress.stop = &g_stop;
+  std::unique_ptr<btfgmm::Representation> r;
+  {
+    const StopOnSignals stop_on_signals;
+    try {
+      r = btfgmm::fit_representation(o.options, o.input, std::move(src), tile, progress);
+    } catch (const Error&) {
+      if (!g_stop.load()) throw;
+      fmt::print(stderr, "interrupted: {} was not written\n", o.out);
+      std::exit(130);
+    }
+  }
   const double fit_seconds = r->provenance().fit.seconds;
   const std::uint64_t bytes = btfgmm::save_representation(*r, o.out);
+  if (const std::string stopped = stopped_note(*r); !stopped.empty() || g_stop.load()) {
+    // The model is written, whole, but not the whole fit's (a fit that kept its best model
+    // met) or after a stop asked for as it ended: said even with --quiet.
+    if (stopped.empty())
+      fmt::print(stderr, "interrupted as the fit ended: {} holds its whole model\n", o.out);
+    else
+      fmt::print(stderr,
+                 "interrupted {}: {} holds that model and is complete; fit again for the whole "
+                 "fit\n",
+                 stopped, o.out);
+    std::exit(130);
+  }
   if (o.quiet) return;
   fmt::print(stderr,
              "wrote {}: {} {}, {} values, {} bytes, compression 1:{:.1f} (paper's count) / "

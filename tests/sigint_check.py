@@ -118,6 +118,17 @@ def main():
                                            "--components", "8", "-o", "lpca.btfgmm"],
                                     work, r"^lpca +0")
         check("fit --method lpca", code, took, err)
+        # The neural BTF's epochs: the lowest held-out error met is written, complete, and its
+        # provenance says the fit was stopped.
+        code, took, err = run_until(fit + ["--method", "neural", "--width", "256",
+                                           "--iterations", "1000", "-o", "neural.btfgmm"],
+                                    work, r"^neural .*epoch 1 of")
+        check("fit --method neural", code, took, err, (130,))
+        info = subprocess.run([btfgmm, "info", "neural.btfgmm"], cwd=work, capture_output=True,
+                              text=True)
+        if info.returncode != 0 or "stopped by the user" not in info.stdout:
+            sys.exit("fit --method neural: the model of a stopped fit is not written, or its "
+                     "provenance does not say it was stopped:\n" + info.stdout + info.stderr)
         code, took, err = run_until([btfgmm, "sweep", "btf", "--tile", "0,0,16,16",
                                      "-o", "sweep"], work, r"%|fitting|gm", delay=1.0)
         check("sweep", code, took, err)

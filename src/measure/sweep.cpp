@@ -150,6 +150,9 @@ ModelComparison fit_and_measure(const Btf& tile, const DataFingerprint& data, co
   std::shared_ptr<const Representation> model = fit_and_record(*s.method, tile, s.settings, data);
   const double fit_seconds = seconds_since(t0);
   s.settings.progress = nullptr;
+  // A fit stopped by the flag that kept its best model met (the neural BTF's) is not done.
+  if (r.stop && r.stop->load())
+    throw Error(Error::Kind::kArgument, fmt::format("{} {}: stopped", s.method->name, s.text));
   report(SweepProgress::Event::kMeasure, s, index);
   const std::vector<std::uint8_t> bytes = representation_file_bytes(*model);
   const std::string name = model_name(*model, names);

@@ -224,11 +224,17 @@ void shuffle_for_epoch(std::vector<std::uint32_t>& ids, std::uint64_t seed, int 
     std::swap(ids[i - 1], ids[std::size_t(draw.next() % i)]);
 }
 
-// The parameters of the lowest held-out error met, and that error (levels).
+// The parameters of the lowest held-out error met, and that error (levels); where a stop was
+// asked for, the epoch it came in.
 struct Best {
   std::vector<float> theta;
   double rmse = INFINITY;
+  int stopped_in_epoch = 0;
 };
+
+bool stop_asked(const FitOptions& o) {
+  return o.stop && o.stop->load();
+}
 
 // The epochs a fit takes at most: `iterations` where given, else kNeuralDefaultEpochs, fewer
 // on a large tile so that they take at most about kNeuralDefaultSteps steps (a bound in work,
@@ -253,7 +259,10 @@ Best train(const Samples& s, const FitOptions& o, int epochs) {
       const std::size_t first = k * batch;
       adam_step(s, std::span(order).subspan(first, std::min(batch, order.size() - first)),
                 rule.rate_scale, o.threads, adam);
-      detail::check_stop(o, kMethod);
+      if (stop_asked(o)) {  // the best met is kept: the file says the fit was stopped
+        best.stopped_in_epoch = epoch + 1;
+        return best;
+      }
       if ((k + 1) % every != 0 && k + 1 != steps) continue;
       const double rmse = validation_rmse(s, adam.theta);
       if (rmse < best.rmse) best = {.theta = adam.theta, .rmse = rmse};
@@ -285,15 +294,26 @@ std::unique_ptr<Representation> fit_neural_btf(const Btf& tile, const FitOptions
   const detail::ThreadScope threads(o.threads);
   detail::report(o, 0.0, "samples and held-out set");
   const Samples s = samples_of(tile, shape);
-  Best best = train(s, o, most_epochs(s, o));
-  detail::report(o, 1.0, fmt::format("done: held-out RMSE {:.3f}", best.rmse));
+  const int epochs = most_epochs(s, o);
+  Best best = train(s, o, epochs);
+  if (best.stopped_in_epoch == 0)
+    detail::report(o, 1.0, fmt::format("done: held-out RMSE {:.3f}", best.rmse));
   // Stored as the file stores them: the model in memory evaluates as the one read back.
   std::vector<float> theta(network_of(s, best.theta).begin(), network_of(s, best.theta).end());
   detail::quantise_factors(theta, theta.size(), FactorEncoding::kF16);
   std::vector<float> rows = detail::latent_rows(latents_of(s, best.theta), shape.latent);
   detail::quantise_factors(rows, s.pixels, e);
-  return std::make_unique<NeuralBtf>(ModelFrame::of(tile), shape, e, s.scale,
-                                     detail::latent_columns(rows, shape.latent), std::move(theta));
+  auto model =
+      std::make_unique<NeuralBtf>(ModelFrame::of(tile), shape, e, s.scale,
+                                  detail::latent_columns(rows, shape.latent), std::move(theta));
+  if (best.stopped_in_epoch > 0) {
+    Provenance p;
+    p.fit.settings.emplace_back(
+        kStoppedSetting, fmt::format("in epoch {} of {}: the lowest held-out error met, {:.3f}",
+                                     best.stopped_in_epoch, epochs, best.rmse));
+    model->set_provenance(std::move(p));
+  }
+  return model;
 }
 
 }  // namespace btfgmm

@@ -85,7 +85,9 @@ struct FitProgress {
   std::function<void(const EmProgress& p)> iteration;  // the mixture: after each EM iteration
   // The other methods; the mixture's refinement for the prediction ("refinement").
   std::function<void(double fraction, std::string_view stage)> progress;
-  const std::atomic<bool>* stop = nullptr;  // set: the fit stops (Error(kArgument), or null)
+  // Set: the fit stops (Error(kArgument), or null); a fit that keeps its best model met (the
+  // neural BTF's) returns it, kStoppedSetting in its provenance (model/provenance.hpp).
+  const std::atomic<bool>* stop = nullptr;
 };
 
 // Fits `o.method` to `tile` (empty: the whole image) of `source`, opened from `input`, and

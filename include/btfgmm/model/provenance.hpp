@@ -51,6 +51,11 @@ struct FitLog {
 constexpr std::string_view kBoundInTime =
     "no: the refinement was bounded in time, so the model depends on the machine and its load";
 
+// The setting a fit stopped by the user before its end records (a method whose fit keeps the
+// best model met, as the neural BTF's does): where it stopped. Such a model is not what the
+// settings give uninterrupted.
+constexpr std::string_view kStoppedSetting = "stopped by the user";
+
 struct Provenance {
   bool recorded = false;  // false: an older file, or a model made without one
   DataFingerprint data;
