@@ -285,14 +285,23 @@ constexpr FitParameter kNeuralParameters[] = {
 
 // The neural BTF's row (Rainer, Jakob, Ghosh & Weyrich 2019).
 MethodInfo neural_btf_row() {
-  return {.name = "neural",
-          .title = "Neural BTF: a latent vector per texel, one network of latent, light and view",
-          .citation = "Rainer, Jakob, Ghosh, Weyrich 2019",
-          .sizes = "`components` L (latent values per texel, 8), `width` (64), `depth` (2)",
-          .parameters = kNeuralParameters,
-          .fit = fit_neural_btf,
-          .read = read_neural_btf,
-          .ladder = neural_btf_ladder};
+  return {
+      .name = "neural",
+      .title = "Neural BTF: a latent vector per texel, one network of latent, light and view",
+      .citation = "Rainer, Jakob, Ghosh, Weyrich 2019",
+      .sizes = "`components` L (latent values per texel, 8), `width` (64), `depth` (2)",
+      .parameters = kNeuralParameters,
+      .fit = fit_neural_btf,
+      .read = read_neural_btf,
+      .ladder = neural_btf_ladder,
+      .quick_search = {.probe = neural_byte_probe,
+                       .bytes_ratio = kNeuralProbeBytesRatio,
+                       .without_size = neural_without_latents,
+                       .most_size = {},
+                       .choice = [](FitOptions s, std::span<const std::string_view>) { return s; },
+                       .summary = fmt::format("its L predicted from the files of {} epoch "
+                                              "fits, the choice fitted as by default",
+                                              kNeuralProbeEpochs)}};
 }
 
 // One row a method (docs/METHODS.md); `sizes` names the options that set its size.
@@ -414,6 +423,8 @@ std::unique_ptr<Representation> fit_and_record(const MethodInfo& method, const B
   p.data = data;
   p.fit.settings = settings_record(method, s);
   p.fit.settings.emplace_back("size", r->size_text());
+  for (const auto& [name, value] : r->provenance().fit.settings)
+    if (name == kStoppedSetting) p.fit.settings.emplace_back(name, value);
   p.fit.seconds = seconds_since(t0);
   p.fit.runs = 1;
   r->set_provenance(std::move(p));

@@ -84,7 +84,22 @@ std::unique_ptr<Representation> fit_neural_btf(const Btf& tile, const FitOptions
 // Reads NeuralBtf::payload(); Error(kFormat) naming `name`.
 std::unique_ptr<Representation> read_neural_btf(std::span<const std::uint8_t> payload,
                                                 std::uint32_t flags, const std::string& name);
-// Shapes spanning Table 2 ratios from about 1:100 to 1:3000 on `frame`, smallest first.
+// Shapes spanning Table 2 ratios from about 1:100 to 1:3000 on `frame`, smallest first: small
+// networks (a latent of 2 or 4, 8 to 32 units) at the low rates, then the default network
+// (2 x 64) with a longer latent, L = 2 to 128, so that on a tile of many texels the top rungs
+// differ in L alone.
 std::vector<FitOptions> neural_btf_ladder(const ModelFrame& frame);
+
+// `fit --budget`'s quick search of L (QuickSizeSearch, methods/registry.hpp): a probe is the
+// same shape fitted for kNeuralProbeEpochs epoch; the full fit's latents take about
+// kNeuralProbeBytesRatio of the bytes of the probe's (the network's 16-bit floats are the same
+// count at any epoch): on generated knit 25 x 25 at L = 32, 19.0 KB against 20.0 KB.
+inline constexpr int kNeuralProbeEpochs = 1;
+inline constexpr double kNeuralProbeBytesRatio = 0.95;
+FitOptions neural_byte_probe(const FitOptions& s);
+// The model with every latent 0 (the network, frame and provenance kept): its file holds the
+// bytes that do not grow with L but through the network's first layer. Throws
+// Error(kArgument) for another method's model.
+std::unique_ptr<Representation> neural_without_latents(const Representation& model);
 
 }  // namespace btfgmm
