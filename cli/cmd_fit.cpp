@@ -1,12 +1,14 @@
 // btfgmm fit: the arguments parsed, and the fit they ask for: the Gaussian mixture's
 // (fit_mixture.cpp), another method's, or the best within a budget (fit_budget.cpp).
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include <algorithm>
 #include <map>
 #include <memory>
 #include <string>
 #include <variant>
+#include <vector>
 
 #include "btfgmm/btfgmm.hpp"
 #include "btfgmm/core/text.hpp"
@@ -148,6 +150,14 @@ CLI::Range declared_range(std::string_view field) {
   return CLI::Range(T(p->min), T(p->max));
 }
 
+// The methods whose size fit --budget predicts from short fits (MethodInfo::quick_search).
+std::string quick_search_methods() {
+  std::vector<std::string_view> names;
+  for (const btfgmm::MethodInfo& m : btfgmm::all_methods())
+    if (m.quick_search.probe) names.push_back(m.name);
+  return fmt::format("{}", fmt::join(names, " and "));
+}
+
 // --method's help: every method with its paper.
 std::string method_help() {
   std::string h = "The representation to fit:";
@@ -169,9 +179,11 @@ void add_budget_and_run_options(CLI::App& app, FitArguments& a) {
                 "As --budget, with the budget the tile's data bytes (a byte a value) over R")
       ->check(CLI::Range(1.0, 1e9));
   f->add_flag("--exhaustive", fit->exhaustive,
-              "With --budget or --ratio: fit every size the search tries in full, as sweep "
-              "does, also the Gaussian mixture's (whose size is otherwise predicted from short "
-              "fits and only the one chosen fitted in full): slower, for comparison");
+              fmt::format("With --budget or --ratio: fit every size the search tries in full, as "
+                          "sweep does, also those of {} (whose size is otherwise predicted from "
+                          "short fits and only the one chosen fitted in full): slower, for "
+                          "comparison",
+                          quick_search_methods()));
   f->add_option("-o,--output", fit->out, "The model file to write (.btfgmm)");
   f->add_option("--checkpoint", fit->checkpoint,
                 "Save the fit's state here (atomically) every --checkpoint-every iterations and "

@@ -231,6 +231,11 @@ TEST(Sweep, ChecksTheRequestAndStopsOnTheFlag) {
   EXPECT_TRUE(s.models.empty());
   EXPECT_EQ(s.total, find_method("gm").ladder(ModelFrame::of(tile)).size());
   EXPECT_EQ(settings_text(FitOptions{}), "the method's defaults");
+  FitOptions neural;  // the network's shape named: two rungs may differ in it alone
+  neural.components = 4;
+  neural.width = 32;
+  neural.depth = 2;
+  EXPECT_EQ(settings_text(neural), "components 4, width 32, depth 2");
 }
 
 // The refinement's bounds apply to the mixture alone: in epochs its models are the same with

@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <map>
 #include <tuple>
 #include <utility>
 
@@ -76,12 +77,14 @@ std::vector<const MethodInfo*> budget_methods(const BudgetRequest& r) {
   return out;
 }
 
-// The one size (components, clusters, degree) in which two settings of a ladder differ, or
-// null when none or several do (then no setting lies between them).
+// The one size (components, clusters, degree; the network's width and depth) in which two
+// settings of a ladder differ, or null when none or several do (then no setting lies between
+// them).
 using SizeField = std::size_t FitOptions::*;
 SizeField varying_size(const FitOptions& a, const FitOptions& b) {
   SizeField out = nullptr;
-  for (SizeField f : {&FitOptions::components, &FitOptions::clusters, &FitOptions::degree})
+  for (SizeField f : {&FitOptions::components, &FitOptions::clusters, &FitOptions::degree,
+                      &FitOptions::width, &FitOptions::depth})
     if (a.*f != b.*f) {
       if (out) return nullptr;
       out = f;
@@ -303,6 +306,9 @@ class QuickSearch {
     field_ = varying_size(ladder[ladder.size() - 2], ladder.back());
     if (!field_) return false;
     base_ = ladder.back();
+    // The rungs the quick search walks: the ladder's top ones that differ in that size alone.
+    first_ = ladder.size() - 2;
+    while (first_ > 0 && varying_size(ladder[first_ - 1], ladder[first_]) == field_) --first_;
     const std::size_t size = predicted_size(ladder);
     if (size == 0) return false;
     choose(size, true);
@@ -311,9 +317,10 @@ class QuickSearch {
 
  private:
   // The size whose full fit's file the probes put at the budget; 0 when the method refused
-  // every size probed. The largest rung the method accepts is probed first: a budget above it
-  // needs no other rung. Below it, the rungs are walked up from the smallest (the cheapest
-  // probes) to the first over the budget.
+  // every size probed, or when the budget is below the top rungs that differ in the size alone
+  // (first_) and rungs below them differ in another. The largest rung the method accepts is
+  // probed first: a budget above it needs no other rung. Below it, the rungs from first_ are
+  // walked up (the cheapest probes first) to the first over the budget.
   std::size_t predicted_size(const std::vector<FitOptions>& ladder) {
     const double budget = double(r_.budget);
     std::size_t cap = largest_size();  // refused above (the tile's samples, the house's most)
@@ -328,7 +335,7 @@ class QuickSearch {
     if (at_top->bytes <= budget)
       return size_above(*at_top, top > 0 ? ladder[top - 1].*field_ : 0, cap);
     std::optional<PredictedBytes> fits;
-    for (std::size_t k = 0; k <= top; ++k) {
+    for (std::size_t k = std::min(first_, top); k <= top; ++k) {
       const std::optional<PredictedBytes> p = k == top ? at_top : probe(ladder[k].*field_);
       if (!p) return fits ? fits->size : 0;
       if (p->bytes <= budget) {
@@ -336,6 +343,9 @@ class QuickSearch {
         continue;
       }
       if (fits) return std::min(line_size(*fits, *p), p->size - 1);
+      // The smallest rung of this size over, below it rungs that differ in another: none
+      // predicted (the method's sizes are searched by full fits instead).
+      if (k > 0) return 0;
       // The smallest rung is over: the line through it and the next, below it.
       const std::optional<PredictedBytes> next =
           k + 1 == top ? at_top : (k + 1 < top ? probe(ladder[k + 1].*field_) : std::nullopt);
@@ -381,9 +391,15 @@ class QuickSearch {
     return most;
   }
 
-  // A probe of `size`, fitted (not measured): the bytes its file predicts for the full fit;
-  // none where the method refuses the size for the tile (recorded as skipped).
+  // A probe of `size`, fitted (not measured) once: the bytes its file predicts for the full
+  // fit; none where the method refuses the size for the tile (recorded as skipped). Two rungs
+  // of one size (rungs that differ in another parameter than the one searched) share it.
   std::optional<PredictedBytes> probe(std::size_t size) {
+    if (const auto at = probed_.find(size); at != probed_.end()) return at->second;
+    return probed_[size] = fitted_probe(size);
+  }
+
+  std::optional<PredictedBytes> fitted_probe(std::size_t size) {
     FitOptions s = setting(size);
     s = m_.quick_search.probe(s);
     report_probe(s);
@@ -467,6 +483,8 @@ class QuickSearch {
   SizeField field_ = nullptr;
   FitOptions base_;
   double slope_ = 0.0;
+  std::map<std::size_t, std::optional<PredictedBytes>> probed_;
+  std::size_t first_ = 0;  // the first rung of the top ones that differ in field_ alone
 };
 
 // No candidate fits: the smallest file possible (`smallest`, with the note of that budget,

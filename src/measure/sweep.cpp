@@ -185,6 +185,8 @@ std::string settings_text(const FitOptions& s) {
   add("clusters", s.clusters);
   add("components", s.components);
   add("degree", s.degree);
+  add("width", s.width);
+  add("depth", s.depth);
   if (s.iterations) t += fmt::format("{}iterations {}", t.empty() ? "" : ", ", s.iterations);
   add("refine epochs", std::size_t(std::max(s.refine_epochs, 0)));
   if (s.refine_seconds)
