@@ -2,11 +2,11 @@
 // stored as `fit` stores it by default (default_file_encoding). For each pixel-wise method, the
 // largest size whose file fits (methods that synthesise texture are left out: no pixel-wise
 // PSNR measures them). A method with a quick search (MethodInfo::quick_search: the Gaussian
-// mixture and the neural BTF, whose fits take minutes) has its size at the budget predicted from the files of
-// short fits (probes) and only that size fitted in full, its file brought within the budget by
-// coarser steps where it is a few percent over (QuickSearch in budget.cpp). Every other method:
-// its ladder of sizes (MethodInfo::ladder, as `sweep` fits it) walked from its smallest model
-// up while the file fits, then the sizes between the last rung that fits and the first that
+// mixture and the neural BTF, whose fits take minutes) has its size at the budget predicted from
+// the files of short fits (probes) and only that size fitted in full, its file brought within the
+// budget by coarser steps where it is a few percent over (QuickSearch in budget.cpp). Every other
+// method: its ladder of sizes (MethodInfo::ladder, as `sweep` fits it) walked from its smallest
+// model up while the file fits, then the sizes between the last rung that fits and the first that
 // does not (below the smallest rung: down to a size of 1; above the largest, when it fits: up
 // to the first size over the budget or refused for the tile) searched by predicting a size's
 // bytes from the two nearest fitted and confirming with the real file (size_search.hpp), every
