@@ -150,8 +150,9 @@ class FitWatch {
   }
   const std::atomic<bool>* stop() const { return &stop_; }
   // With the GIL held: a model the fit completed although stopped (a mixture stopped in its
-  // refinement keeps the lowest error met, as the command does) is kept, with a warning, where
-  // Ctrl-C stopped it; otherwise the Python error that stopped the fit is raised.
+  // refinement, or a neural BTF in its epochs, keeps the lowest error met, as the command
+  // does) is kept, with a warning, where Ctrl-C stopped it; otherwise the Python error that
+  // stopped the fit is raised.
   void raise_if_stopped(bool completed) {
     if (!type_) return;
     if (completed && PyErr_GivenExceptionMatches(type_, PyExc_KeyboardInterrupt)) {
@@ -159,8 +160,8 @@ class FitWatch {
       Py_CLEAR(value_);
       Py_CLEAR(trace_);
       if (PyErr_WarnEx(PyExc_RuntimeWarning,
-                       "fit: stopped by Ctrl-C in the refinement; the model of the lowest "
-                       "held-out error met is returned",
+                       "fit: stopped by Ctrl-C; the model of the lowest held-out error met "
+                       "is returned (its provenance says where the fit stopped)",
                        1) != 0)
         throw py::error_already_set();
       return;
@@ -301,8 +302,9 @@ const char* fit_doc() {
         "`btfgmm fit` writes. progress(fraction, stage) is called as it goes; without it a line "
         "on sys.stderr tells each EM iteration and every 5 s of the other stages, unless "
         "quiet=True. Ctrl-C stops it: KeyboardInterrupt, but in the mixture's refinement for "
-        "the prediction, where the model of the lowest held-out error met is returned (a "
-        "RuntimeWarning says so), as the command writes it. A value out of its range or an "
+        "the prediction and the neural BTF's epochs, where the model of the lowest held-out "
+        "error met is returned (a RuntimeWarning says so), as the command writes it. A value out "
+        "of its range or an "
         "option a method does not take raises ArgumentError naming the keyword. The options:";
     for (const FitParameter* p : fit_parameters())
       if (!std::holds_alternative<std::monostate>(p->member))

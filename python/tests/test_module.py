@@ -153,6 +153,18 @@ def test_a_neural_fit_equals_the_command_on_other_threads(work, tmp_path):
     assert model.method == "neural" and model.size == "L = 3, 2 x 8"
 
 
+def test_ctrl_c_in_a_neural_fit_returns_the_best_model_met(work):
+    def stop_in_epoch_two(fraction, stage):
+        if stage.startswith("epoch 2 of"):
+            raise KeyboardInterrupt
+
+    with pytest.warns(RuntimeWarning, match="stopped by Ctrl-C; the model of the lowest"):
+        kept = btfgmm.fit(work["btf"], tile=(0, 0, 6, 6), method="neural", components=3,
+                          width=8, iterations=50, seed=4, progress=stop_in_epoch_two)
+    assert kept.method == "neural"
+    assert kept.provenance["settings"]["stopped by the user"].startswith("in epoch 2 of 50")
+
+
 def test_fit_takes_the_objective_and_the_pyramid_levels(work, tmp_path):
     paper = btfgmm.fit(work["btf"], tile=(0, 0, 6, 6), components=5, iterations=3, seed=2,
                        objective="likelihood")
@@ -304,7 +316,7 @@ def test_progress_and_stopping_a_fit(work):
 
     # Stopped in the refinement, the model of the lowest held-out error met is returned, as
     # the command writes it, with a warning; its provenance says the steps were stopped.
-    with pytest.warns(RuntimeWarning, match="stopped by Ctrl-C in the refinement"):
+    with pytest.warns(RuntimeWarning, match="stopped by Ctrl-C; the model of the lowest"):
         kept = btfgmm.fit(work["btf"], tile=(0, 0, 6, 6), components=5, iterations=3, seed=2,
                           progress=stop_in_refinement)
     assert calls[:3] == ["EM"] * 3 and 3 < len(calls) < len(stages)
