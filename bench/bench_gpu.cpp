@@ -3,7 +3,8 @@
 // iteration (the mean of iterations 2..K), the E pass alone, ns per sample x component of an
 // iteration, and the mean log-likelihood at every iteration with the largest relative
 // difference between the two (the GPU sums in another order: at most 1e-5 is the same fit);
-// then the refinement for the prediction's passes from EM's final mixture, both ways.
+// then the refinement for the prediction's passes from EM's final mixture, both ways, and the
+// decoding of the tile's every image from it.
 //
 //   bench_gpu [--size S] [--tile T] [--components M] [--iterations K] [--threads N]
 //             [--device gpu|auto] [--no-cpu]
@@ -137,6 +138,47 @@ void print_refinement(const Options& o, const btfgmm::SampleSet& s,
   });
 }
 
+// Decoding the tile's every image (81 x 81) from `mix` on the CPU (decode's default tolerance,
+// and every component) and on the device (every component), each once; the largest difference
+// of a decoded value from the CPU's with every component, levels.
+void print_decoding(const Options& o, const btfgmm::SampleSet& s, btfgmm::ProductMixture mix,
+                    btfgmm::ComputeDevice& device) {
+  const btfgmm::Btf full = bench::corduroy_btf(o.size);
+  btfgmm::BtfModel model;
+  model.lights = full.lights();
+  model.views = full.views();
+  model.width = model.height = o.tile;
+  model.scaling = s.scaling;
+  model.mean_brdf = s.mean_brdf;
+  model.mixture = std::move(mix);
+  const auto timed = [&](auto&& decode) {
+    const double t0 = bench::now();
+    btfgmm::Btf b = decode();
+    return std::pair{bench::now() - t0, std::move(b)};
+  };
+  const auto& l = model.lights;
+  const auto& v = model.views;
+  const auto [t_default, skipped] = timed([&] { return decode(model, l, v, o.tile, o.tile); });
+  const auto [t_every, every] = timed([&] { return decode(model, l, v, o.tile, o.tile, 0.0); });
+  const auto [t_gpu, gpu] = timed([&] { return decode(device, model, l, v, o.tile, o.tile); });
+  double worst = 0.0;
+  for (std::size_t i = 0; i < every.data().size(); ++i)
+    worst = std::max(worst, double(std::abs(gpu.data()[i] - every.data()[i])));
+  const double queries = double(l.size() * v.size()) * o.tile * o.tile;
+  std::printf(
+      "\ndecoding the tile's %zu images from EM's final mixture (M = %zu), once each:\n"
+      "| decode | s | ns / (pixel x component) | CPU s / this s |\n|---|---|---|---|\n"
+      "| CPU, tolerance 1e-3 (the default) | %.3f | %.3f | 1.00 |\n"
+      "| CPU, every component | %.3f | %.3f | %.2f |\n"
+      "| GPU, every component | %.3f | %.3f | %.2f |\n"
+      "the GPU's values within %.1e level of the CPU's with every component\n",
+      l.size() * v.size(), model.mixture.size(), t_default,
+      t_default / (queries * double(model.mixture.size())) * 1e9, t_every,
+      t_every / (queries * double(model.mixture.size())) * 1e9, t_default / t_every, t_gpu,
+      t_gpu / (queries * double(model.mixture.size())) * 1e9, t_default / t_gpu, worst);
+  std::fflush(stdout);
+}
+
 void print_row(const char* name, const Run& r, double n, std::size_t m) {
   std::printf("| %s | %.4f | %.4f | %.3f | %.3f | %.10f |\n", name, r.per_iteration, r.e_pass,
               r.per_iteration / (n * double(m)) * 1e9, r.seconds, r.result.final_log_likelihood);
@@ -209,6 +251,7 @@ int main(int argc, char** argv) {
     print_row("GPU", gpu, n, o.components);
     print_stages(o, s, gpu.mixture, *device, n);
     print_refinement(o, s, gpu.mixture, *device);
+    print_decoding(o, s, gpu.mixture, *device);
     return 0;
   }
   const Run cpu = run_em(o, s, nullptr);
@@ -225,6 +268,7 @@ int main(int argc, char** argv) {
       cpu.per_iteration / gpu.per_iteration, cpu.e_pass / gpu.e_pass, worst);
   print_stages(o, s, cpu.mixture, *device, n);
   print_refinement(o, s, cpu.mixture, *device);
+  print_decoding(o, s, cpu.mixture, *device);
   if (worst > 1e-5 || a.size() != b.size()) {
     std::printf("the GPU's log-likelihood differs from the CPU's\n");
     return 1;

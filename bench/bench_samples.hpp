@@ -8,12 +8,16 @@
 
 namespace bench {
 
-inline btfgmm::SampleSet corduroy_samples(int size, int tile) {
+inline btfgmm::Btf corduroy_btf(int size) {
   btfgmm::GenerateConfig g;
   g.material = "corduroy";
   g.size = size;
   g.seed = 1;
-  const btfgmm::Btf full = btfgmm::generate(g);
+  return btfgmm::generate(g);
+}
+
+inline btfgmm::SampleSet corduroy_samples(int size, int tile) {
+  const btfgmm::Btf full = corduroy_btf(size);
   if (tile == size) return btfgmm::make_sample_set(full);  // no copy of the whole BTF
   btfgmm::Btf cut(full.lights(), full.views(), tile, tile, full.format());
   for (std::size_t l = 0; l < full.lights().size(); ++l)

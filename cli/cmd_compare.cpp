@@ -20,6 +20,7 @@
 #include "btfgmm/report/report.hpp"
 #include "cli_util.hpp"
 #include "commands.hpp"
+#include "device_option.hpp"
 #include "provenance_text.hpp"
 
 namespace btfgmm::cli {
@@ -31,6 +32,7 @@ struct CompareArguments {
   std::string btf, report;
   std::vector<std::string> models;
   std::size_t worst = 3;
+  std::string device = "auto";
   bool json = false, overwrite = false, quiet = false, force = false;
 };
 
@@ -183,8 +185,11 @@ std::vector<std::shared_ptr<const Representation>> read_models(const CompareArgu
                   fmt::format("model '{}' does not exist; give the path of a .btfgmm file written "
                               "by btfgmm fit",
                               path));
-    models.push_back(load_representation(path));
-    check_model_frame(*models.back(), path, info, o.btf);
+    const std::shared_ptr<Representation> model = load_representation(path);
+    check_model_frame(*model, path, info, o.btf);
+    const std::string where = compute_on_device(*model, o.device, path);
+    if (!o.quiet && where != "the CPU") fmt::print(stderr, "predicting {} on {}\n", path, where);
+    models.push_back(model);
   }
   return models;
 }
@@ -271,6 +276,7 @@ void register_compare_command(CLI::App& app, Commands& commands) {
   c->add_flag("--overwrite", opt->overwrite, "Replace the files of a non-empty report folder");
   c->add_flag("--force", opt->force,
               "Compare even where a model's provenance records other data than the BTF's tile");
+  add_device_option(c, opt->device);
   c->add_flag("-q,--quiet", opt->quiet, "No progress on stderr");
 
   commands.push_back({c, [opt] { run_compare(*opt); }});

@@ -11,13 +11,14 @@
 #include "btfgmm/model/predict.hpp"
 #include "cli_util.hpp"
 #include "commands.hpp"
+#include "device_option.hpp"
 #include "stop_signals.hpp"
 
 namespace btfgmm::cli {
 namespace {
 
 struct DecodeArguments {
-  std::string model, out, size;
+  std::string model, out, size, device = "auto";
   std::vector<std::string> lights, views;
   double tolerance = btfgmm::kDecodeTolerance;
   bool overwrite = false, yes = false, quiet = false;
@@ -30,7 +31,8 @@ constexpr double kDecodeBytesWithoutYes = 1024.0 * 1024.0 * 1024.0;
 
 // Says what the decoding will write before it starts, and refuses more than
 // kDecodeBytesWithoutYes unless --yes.
-void check_decode_size(const DecodeArguments& o, std::size_t images, int w, int h) {
+void check_decode_size(const DecodeArguments& o, std::size_t images, int w, int h,
+                       const std::string& where) {
   const double bytes = double(images) * double(w) * double(h) * 3.0;
   if (bytes > kDecodeBytesWithoutYes && !o.yes)
     throw btfgmm::Error(
@@ -40,8 +42,8 @@ void check_decode_size(const DecodeArguments& o, std::size_t images, int w, int 
                     "write them, or fewer images (--light, --view) or a smaller --size",
                     images, w, h, human_bytes(bytes), human_bytes(kDecodeBytesWithoutYes)));
   if (!o.quiet)
-    fmt::print(stderr, "decoding {} images of {}x{} pixels to {} (up to {} as 8-bit RGB)\n", images,
-               w, h, o.out, human_bytes(bytes));
+    fmt::print(stderr, "decoding {} images of {}x{} pixels to {} (up to {} as 8-bit RGB) on {}\n",
+               images, w, h, o.out, human_bytes(bytes), where);
 }
 
 void run_decode(const DecodeArguments& o) {
@@ -49,6 +51,7 @@ void run_decode(const DecodeArguments& o) {
   if (o.seed) model->set_synthesis_seed(*o.seed, "--seed");
   const btfgmm::ModelFrame& m = model->frame();
   check_output_folder(o.out, o.overwrite);
+  const std::string where = compute_on_device(*model, o.device, o.model);
   auto directions = [](const std::vector<std::string>& given, const btfgmm::DirectionSet& all,
                        const char* option) {
     if (given.empty()) return all;
@@ -60,7 +63,7 @@ void run_decode(const DecodeArguments& o) {
   const btfgmm::DirectionSet views = directions(o.views, m.views, "--view");
   const auto [w, h] =
       o.size.empty() ? std::pair{m.width, m.height} : parse_size(o.size, option_name("size"));
-  check_decode_size(o, lights.size() * views.size(), w, h);
+  check_decode_size(o, lights.size() * views.size(), w, h, where);
   const auto t0 = Clock::now();
   double printed_at = 0.0;
   // One light at a time: a large repeated size need not fit in memory at once. Ctrl-C ends it
@@ -103,9 +106,10 @@ void register_decode_command(CLI::App& app, Commands& commands) {
   d->add_option("--size", dec->size, "N or WxH pixels, the tile repeated (default: the tile)");
   d->add_option("--tolerance", dec->tolerance,
                 "Largest change, in levels, that skipping negligible components may cause (0: "
-                "evaluate every component)")
+                "evaluate every component; the GPU evaluates every component)")
       ->capture_default_str()
       ->check(CLI::NonNegativeNumber);
+  add_device_option(d, dec->device);
   d->add_flag("--overwrite", dec->overwrite, "Replace images in a non-empty output folder");
   d->add_flag("--yes", dec->yes,
               "Write more than 1 GiB of images (images x width x height x 3 bytes), which is "

@@ -9,18 +9,20 @@
 #include "btfgmm/btfgmm.hpp"
 #include "cli_util.hpp"
 #include "commands.hpp"
+#include "device_option.hpp"
 
 namespace btfgmm::cli {
 namespace {
 
 struct EvalArguments {
-  std::string model, light, view;
+  std::string model, light, view, device = "auto";
   double x = 0, y = 0;
   bool json = false;
 };
 
 void run_eval(const EvalArguments& o) {
   const auto model = btfgmm::load_representation(o.model);
+  compute_on_device(*model, o.device, o.model);
   const btfgmm::Query q{.x = o.x,
                         .y = o.y,
                         .light = parse_direction(o.light, "--light"),
@@ -63,6 +65,7 @@ void register_eval_command(CLI::App& app, Commands& commands) {
       ->required();
   e->add_option("--light", ev->light, "Light THETA,PHI in degrees")->required();
   e->add_option("--view", ev->view, "View THETA,PHI in degrees")->required();
+  add_device_option(e, ev->device);
   e->add_flag("--json", ev->json,
               "One JSON object for scripts: x, y, light, view and rgb (the same units)");
 

@@ -265,6 +265,7 @@ Model fit(const py::object& data, const py::object& tile, const py::object& prog
   }
   watch.raise_if_stopped(r != nullptr);
   if (!r) throw Error(Error::Kind::kArgument, "fit: the fit was stopped");
+  compute_where_fitted(*r, o);  // its predictions on the device of its fit
   Model m;
   m.rep = std::move(r);
   return m;

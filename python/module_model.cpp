@@ -141,10 +141,18 @@ py::dict provenance_dict(const Provenance& p) {
   return d;
 }
 
-Model load(const py::object& path) {
+// The model of a file, its predictions (eval, decode, compare) on the device `device` names.
+Model load(const py::object& path, const std::string& device) {
+  const std::optional<DeviceChoice> choice = parse_device_choice(device);
+  if (!choice)
+    throw Error(
+        Error::Kind::kArgument,
+        fmt::format("load: device '{}' is not a device; give 'auto', 'cpu' or 'gpu'", device));
   Model m;
   m.path = path_of(path, "load");
-  m.rep = load_representation(m.path);
+  std::unique_ptr<Representation> rep = load_representation(m.path);
+  compute_predictions_on(*rep, *choice, m.path);
+  m.rep = std::move(rep);
   m.file_bytes = fs::file_size(m.path);
   return m;
 }
@@ -211,7 +219,10 @@ void bind_model(py::module_& m) {
       .def_property_readonly("provenance",
                              [](const Model& x) { return provenance_dict(x.rep->provenance()); })
       .def("__repr__", &repr);
-  m.def("load", &load, py::arg("path"), "Reads a model file of any method (.btfgmm).");
+  m.def("load", &load, py::arg("path"), py::kw_only(), py::arg("device") = "auto",
+        "Reads a model file of any method (.btfgmm). device: where its predictions (eval, "
+        "decode, compare) are computed: 'auto' (a GPU where one exists, else the CPU), 'cpu', "
+        "or 'gpu' (a GPU, else a software Vulkan; the Gaussian mixture's alone).");
 }
 
 }  // namespace btfgmm::python

@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
@@ -305,6 +306,53 @@ TEST_F(Cli, EvalLabelsItsValuesAndSaysWhatXAndYAre) {
   EXPECT_NEAR(j["rgb"][0].get<double>(), red, 1e-4);
   EXPECT_NEAR(j["rgb"][2].get<double>(), blue, 1e-4);
   EXPECT_EQ(j["units"], "levels");
+}
+
+// decode, eval and compare with --device gpu (lavapipe in CI) beside --device cpu: the same
+// figures within a thousandth of a level; a method without kernels is refused there.
+TEST_F(Cli, DecodeEvalAndCompareOnTheGpuGiveTheCpusFigures) {
+  CliRun r = run(std::string("generate --size 8 ") + kSmall + " -o " + p("btf"));
+  ASSERT_EQ(r.status, 0) << r.out;
+  r = run("fit " + p("btf") + " -M 6 --iterations 3 --refine-steps 5 -q -o " + p("m.btfgmm"));
+  ASSERT_EQ(r.status, 0) << r.out;
+  const std::string eval =
+      "eval " + p("m.btfgmm") + " --x 2.5 --y 9 --light 20,10 --view 33,250 --json";
+  r = run(eval + " --device gpu");
+  if (r.status != 0 && r.out.find("no Vulkan device") != std::string::npos) {
+    const char* ci = std::getenv("CI");
+    ASSERT_FALSE(ci && std::string(ci) == "true") << "CI runs the GPU kernels: " << r.out;
+    GTEST_SKIP() << r.out;
+  }
+  ASSERT_EQ(r.status, 0) << r.out;
+  const auto gpu = nlohmann::json::parse(r.out);
+  r = run(eval + " --device cpu");
+  const auto cpu = nlohmann::json::parse(r.out);
+  for (int c = 0; c < 3; ++c)
+    EXPECT_NEAR(gpu["rgb"][c].get<double>(), cpu["rgb"][c].get<double>(), 1e-3) << r.out;
+
+  r = run("decode " + p("m.btfgmm") + " --device gpu -o " + p("dec"));
+  ASSERT_EQ(r.status, 0) << r.out;
+  EXPECT_NE(r.out.find(" as 8-bit RGB) on the GPU "), std::string::npos) << r.out;
+  const std::string compare = "compare " + p("btf") + " " + p("m.btfgmm");
+  r = run(compare + " --device gpu");
+  ASSERT_EQ(r.status, 0) << r.out;
+  EXPECT_NE(r.out.find("m.btfgmm on the GPU "), std::string::npos) << r.out;
+  r = run(compare + " --json -q --device gpu");
+  ASSERT_EQ(r.status, 0) << r.out;
+  const double gpu_rmse = nlohmann::json::parse(r.out)["rmse"];
+  r = run(compare + " --json -q --device cpu");
+  ASSERT_EQ(r.status, 0) << r.out;
+  EXPECT_NEAR(gpu_rmse, nlohmann::json::parse(r.out)["rmse"].get<double>(), 1e-3);
+
+  r = run("fit " + p("btf") + " --method pca-btf --components 2 -q -o " + p("pca.btfgmm"));
+  ASSERT_EQ(r.status, 0) << r.out;
+  r = run("eval " + p("pca.btfgmm") + " --x 0 --y 0 --light 0,0 --view 0,0 --device gpu");
+  EXPECT_NE(r.status, 0);
+  EXPECT_NE(r.out.find("give --device cpu or auto"), std::string::npos) << r.out;
+  r = run("eval " + p("pca.btfgmm") + " --x 0 --y 0 --light 0,0 --view 0,0 --device auto");
+  EXPECT_EQ(r.status, 0) << r.out;
+  r = run("decode " + p("m.btfgmm") + " --device tpu -o " + p("x"));
+  EXPECT_EQ(r.status, 2) << r.out;
 }
 
 TEST_F(Cli, InfoJsonPrintsADirectionPairALine) {

@@ -8,14 +8,18 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <random>
 #include <string>
 #include <vector>
 
 #include "btfgmm/core/error.hpp"
 #include "btfgmm/gpu/compute_device.hpp"
+#include "btfgmm/methods/gaussian_mixture.hpp"
+#include "btfgmm/methods/registry.hpp"
 #include "btfgmm/model/decode.hpp"
 #include "btfgmm/model/em.hpp"
 #include "btfgmm/model/fit.hpp"
+#include "btfgmm/model/predict_gpu.hpp"
 #include "btfgmm/model/refine.hpp"
 #include "btfgmm/model/samples.hpp"
 #include "model/refine_internal.hpp"
@@ -332,6 +336,89 @@ TEST(Gpu, TheSameDeviceGivesTheSameModelRunAfterRun) {
   EXPECT_EQ(a.mixture.mean, b.mixture.mean);
   EXPECT_EQ(a.mixture.var, b.mixture.var);
   EXPECT_EQ(a.mixture.weight, b.mixture.weight);
+}
+
+// ---- Decoding and eval on the device (model/predict_gpu.hpp) -------------------------------
+
+// A small tile's model: EM alone, 20 components.
+BtfModel small_model(const Btf& btf) {
+  FitConfig c = mixture_config(20, 4, 1, 2);
+  c.objective = FitObjective::kLikelihood;
+  c.device = DeviceChoice::kCpu;
+  return fit_model(btf, c);
+}
+
+double largest_difference(std::span<const float> a, std::span<const float> b) {
+  double worst = 0.0;
+  for (std::size_t i = 0; i < a.size(); ++i) worst = std::max(worst, double(std::abs(a[i] - b[i])));
+  return worst;
+}
+
+// Queries anywhere: positions off the pixel centres, outside the tile and negative (the tile
+// repeats), directions off the measured ones.
+std::vector<Query> random_queries(std::size_t n) {
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> pos(-20.0, 30.0), theta(0.0, 85.0), phi(-180.0, 360.0);
+  std::vector<Query> q(n);
+  for (Query& x : q) x = {pos(rng), pos(rng), {theta(rng), phi(rng)}, {theta(rng), phi(rng)}};
+  return q;
+}
+
+// eval's queries on the device beside predict()'s double sums: the float sums of Eq. (8)
+// (lavapipe: within 1.6e-5 level).
+TEST(Gpu, ItsPredictionsAreTheCpusWithinAThousandthOfALevel) {
+  REQUIRE_DEVICE(device);
+  const BtfModel model =
+      small_model(test::generated_tile("corduroy", 8, 1, "spiral:13", "spiral:11"));
+  const std::vector<Query> q = random_queries(500);
+  std::vector<float> cpu(q.size() * 3), gpu(q.size() * 3);
+  predict(model, q, cpu);
+  predict(*device, model, q, gpu);
+  const double worst = largest_difference(gpu, cpu);
+  std::printf("500 queries: within %.2e level of the CPU's\n", worst);
+  EXPECT_LE(worst, 1e-3);
+  EXPECT_THROW(predict(*device, model, std::vector<Query>{{0, 0, {95, 0}, {0, 0}}}, gpu), Error);
+}
+
+// decode on the device beside decode() on the CPU with every component (tolerance 0): the
+// tile repeated over an image of another size, directions measured and not, the queries in
+// runs of 1,000 and in one run the same.
+TEST(Gpu, ItsDecodingIsTheCpusEveryComponentWeighed) {
+  REQUIRE_DEVICE(device);
+  const Btf btf = test::generated_tile("corduroy", 8, 1, "spiral:13", "spiral:11");
+  const BtfModel model = small_model(btf);
+  const DirectionSet lights({btf.lights()[0], btf.lights()[5], {33.0, 71.0}});
+  const DirectionSet views({btf.views()[2], {61.0, 200.0}});
+  const Btf cpu = decode(model, lights, views, 11, 6, 0.0);
+  const Btf gpu = decode(*device, model, lights, views, 11, 6, 1000);
+  const double worst = largest_difference(gpu.data(), cpu.data());
+  std::printf("6 images of 11 x 6: within %.2e level of the CPU's\n", worst);
+  EXPECT_LE(worst, 1e-3);
+  const Btf one_run = decode(*device, model, lights, views, 11, 6);
+  EXPECT_TRUE(std::equal(gpu.data().begin(), gpu.data().end(), one_run.data().begin(),
+                         one_run.data().end()));
+}
+
+// Only the mixture has kernels for a device; the others keep computing on the CPU.
+TEST(Gpu, TheMixtureComputesOnTheDeviceItIsGiven) {
+  REQUIRE_DEVICE(device);
+  const Btf btf = test::generated_tile("corduroy", 8, 1, "spiral:13", "spiral:11");
+  GaussianMixture gm(small_model(btf));
+  const std::vector<Query> q = random_queries(40);
+  std::vector<float> cpu(q.size() * 3), gpu(q.size() * 3);
+  gm.predict(q, cpu);
+  EXPECT_TRUE(gm.compute_on(device));
+  gm.predict(q, gpu);
+  EXPECT_NE(cpu, gpu);  // float sums, not predict()'s double ones
+  EXPECT_LE(largest_difference(gpu, cpu), 1e-3);
+  EXPECT_TRUE(gm.compute_on(nullptr));
+  gm.predict(q, gpu);
+  EXPECT_EQ(cpu, gpu);
+  FitOptions s;
+  s.components = 2;
+  const auto pca = fit_and_record(find_method("pca-btf"), btf, s, {});
+  EXPECT_FALSE(pca->compute_on(device));
+  EXPECT_TRUE(pca->compute_on(nullptr));
 }
 
 }  // namespace

@@ -31,6 +31,7 @@
 #include "btfgmm/model/model.hpp"
 #include "btfgmm/model/model_file.hpp"
 #include "btfgmm/model/predict.hpp"
+#include "btfgmm/model/predict_gpu.hpp"
 #include "btfgmm/model/samples.hpp"
 // methods: one interface for every representation (the mixture and the comparison methods)
 #include "btfgmm/methods/fit_options.hpp"
@@ -40,6 +41,7 @@
 #include "btfgmm/methods/pca_btf.hpp"
 #include "btfgmm/methods/pca_rf.hpp"
 #include "btfgmm/methods/plm_rf.hpp"
+#include "btfgmm/methods/prediction_device.hpp"
 #include "btfgmm/methods/ptm_rf.hpp"
 #include "btfgmm/methods/registry.hpp"
 #include "btfgmm/methods/representation.hpp"

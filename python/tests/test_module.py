@@ -70,6 +70,26 @@ def test_eval_equals_the_command(work, which):
     assert one.shape == (3,) and np.array_equal(one, got[0])
 
 
+def test_a_model_loaded_onto_the_gpu_gives_the_cpus_values(work):
+    """device="gpu" (lavapipe in CI) computes the mixture's predictions on the device."""
+    try:
+        gpu = btfgmm.load(work["gm"], device="gpu")
+    except btfgmm.ArgumentError as e:
+        if "no Vulkan device" in str(e) and os.environ.get("CI") != "true":
+            pytest.skip(str(e))
+        raise
+    cpu = btfgmm.load(work["gm"], device="cpu")
+    q = random_queries(np.random.default_rng(5), 50)
+    np.testing.assert_allclose(gpu.eval(q), cpu.eval(q), rtol=0, atol=1e-3)
+    a = gpu.decode((30, 45), (20, 100), size=(10, 7))
+    b = cpu.decode((30, 45), (20, 100), size=(10, 7), tolerance=0)
+    np.testing.assert_allclose(a, b, rtol=0, atol=1e-3)
+    with pytest.raises(btfgmm.ArgumentError, match="cpu or auto"):
+        btfgmm.load(work["pca"], device="gpu")
+    with pytest.raises(btfgmm.ArgumentError, match="'auto', 'cpu' or 'gpu'"):
+        btfgmm.load(work["gm"], device="tpu")
+
+
 def quantise(v):
     """As the command writes 8-bit images: rounded half away from zero, clamped to 0..255."""
     v = np.asarray(v, dtype=np.float64)

@@ -140,7 +140,7 @@ std::shared_ptr<ComputeDevice> open_compute_device(DeviceChoice choice) {
   if (choice == DeviceChoice::kAuto && !hardware) return nullptr;
   if (d.found.empty())
     throw Error(Error::Kind::kArgument,
-                "no Vulkan device that can run the fit's shaders (a compute queue and 64-bit "
+                "no Vulkan device that can run btfgmm's shaders (a compute queue and 64-bit "
                 "floats) was found: install the GPU's Vulkan driver (for a test without a GPU, "
                 "Mesa's lavapipe: Debian's mesa-vulkan-drivers), or run it on the CPU (" +
                     option_name("device") + " cpu)");

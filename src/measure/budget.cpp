@@ -15,6 +15,7 @@
 #include "btfgmm/measure/compare.hpp"
 #include "btfgmm/measure/size_search.hpp"
 #include "btfgmm/methods/fit_options.hpp"
+#include "btfgmm/methods/prediction_device.hpp"
 #include "btfgmm/methods/registry.hpp"
 #include "btfgmm/model/model_file.hpp"
 
@@ -467,8 +468,9 @@ class QuickSearch {
       std::shared_ptr<Representation> coarse = m_.coarsened(*c.model, factor);
       const std::vector<std::uint8_t> file = with_note(*coarse, r_.budget, r_, c.name).file;
       if (file.size() > r_.budget) continue;
-      ModelComparison measured =
-          compare_model(tile_, read_representation(file, c.name), c.name, file.size());
+      std::unique_ptr<Representation> read = read_representation(file, c.name);
+      compute_where_fitted(*read, s);
+      ModelComparison measured = compare_model(tile_, std::move(read), c.name, file.size());
       out_.record(m_, settings_text(s), measured, factor);
       return true;
     }

@@ -13,6 +13,7 @@
 #include "btfgmm/core/text.hpp"
 #include "btfgmm/io/files.hpp"
 #include "btfgmm/methods/fit_options.hpp"
+#include "btfgmm/methods/prediction_device.hpp"
 #include "btfgmm/methods/registry.hpp"
 
 namespace btfgmm {
@@ -159,8 +160,9 @@ ModelComparison fit_and_measure(const Btf& tile, const DataFingerprint& data, co
   if (!r.model_folder.empty())
     write_file_atomically(r.model_folder / (name + ".btfgmm"), bytes, "model file");
   // Measured as its file holds it (factors in the file's precision), as `compare` would.
-  model = read_representation(bytes, name);
-  ModelComparison c = compare_model(tile, std::move(model), name, bytes.size(), r.compare);
+  std::unique_ptr<Representation> read = read_representation(bytes, name);
+  compute_where_fitted(*read, s.settings);
+  ModelComparison c = compare_model(tile, std::move(read), name, bytes.size(), r.compare);
   c.fit_seconds = fit_seconds;
   return c;
 }

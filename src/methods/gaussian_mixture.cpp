@@ -14,6 +14,7 @@
 #include "btfgmm/model/fit.hpp"
 #include "btfgmm/model/model_file.hpp"
 #include "btfgmm/model/predict.hpp"
+#include "btfgmm/model/predict_gpu.hpp"
 #include "btfgmm/model/refine.hpp"
 
 namespace btfgmm {
@@ -43,12 +44,21 @@ std::uint64_t GaussianMixture::parameter_count() const {
 }
 
 void GaussianMixture::predict(std::span<const Query> queries, std::span<float> rgb) const {
-  btfgmm::predict(model_, queries, rgb);
+  if (device_)
+    btfgmm::predict(*device_, model_, queries, rgb);
+  else
+    btfgmm::predict(model_, queries, rgb);
 }
 
 Btf GaussianMixture::decode(const DirectionSet& lights, const DirectionSet& views, int width,
                             int height, double tolerance) const {
+  if (device_) return btfgmm::decode(*device_, model_, lights, views, width, height);
   return btfgmm::decode(model_, lights, views, width, height, tolerance);
+}
+
+bool GaussianMixture::compute_on(std::shared_ptr<ComputeDevice> device) {
+  device_ = std::move(device);
+  return true;
 }
 
 std::uint32_t GaussianMixture::file_flags() const {

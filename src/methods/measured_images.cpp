@@ -123,20 +123,6 @@ void MeasuredImages::predict(std::span<const Query> queries, std::span<float> rg
     predict_one(queries[std::size_t(i)], rgb.data() + std::size_t(i) * 3);
 }
 
-namespace {
-
-// The tile image `tile` (W x H) repeated over an image of width x height.
-void repeat_tile(const float* tile, int tw, int th, float* out, int width, int height) {
-  for (int y = 0; y < height; ++y)
-    for (int x = 0; x < width; ++x)
-      for (int c = 0; c < 3; ++c)
-        out[(std::size_t(y) * std::size_t(width) + std::size_t(x)) * 3 + std::size_t(c)] =
-            tile[(std::size_t(y % th) * std::size_t(tw) + std::size_t(x % tw)) * 3 +
-                 std::size_t(c)];
-}
-
-}  // namespace
-
 Btf MeasuredImages::decode(const DirectionSet& lights, const DirectionSet& views, int width,
                            int height, double /*tolerance*/) const {
   detail::check_decode_request(lights, views, width, height);
@@ -174,9 +160,8 @@ Btf MeasuredImages::decode(const DirectionSet& lights, const DirectionSet& views
         }
         for (std::size_t i = 0; i < n; ++i) tile[i] = float(sum[i]);
       }
-      repeat_tile(tile.data(), frame_.width, frame_.height,
-                  out.image(std::size_t(p) / views.size(), std::size_t(p) % views.size()), width,
-                  height);
+      detail::repeat_tile(tile.data(), frame_.width, frame_.height, width, height,
+                          out.image(std::size_t(p) / views.size(), std::size_t(p) % views.size()));
     }
   }
   return out;

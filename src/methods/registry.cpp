@@ -160,9 +160,9 @@ constexpr FitParameter kMixtureParameters[] = {
      .choices = "auto cpu gpu",
      .default_text = "auto",
      .routes = kAnyRoute,
-     .help = "where EM and the refinement's steps run: auto (a GPU where one exists, else the "
-             "CPU), cpu, or gpu (a GPU, "
-             "else a software Vulkan such as lavapipe; docs/GPU.md)"},
+     .help = "where EM and the refinement's steps run, and the predictions sweep and the "
+             "budget's search measure: auto (a GPU where one exists, else the CPU), cpu, or gpu "
+             "(a GPU, else a software Vulkan such as lavapipe; docs/GPU.md)"},
     {.field = "precision",
      .type = T::kWord,
      .member = &FitOptions::precision,

@@ -33,6 +33,10 @@ void Representation::set_synthesis_seed(std::uint64_t, std::string_view option) 
                           option, method(), option));
 }
 
+bool Representation::compute_on(std::shared_ptr<ComputeDevice> device) {
+  return device == nullptr;
+}
+
 }  // namespace btfgmm
 
 namespace btfgmm {

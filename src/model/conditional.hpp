@@ -29,6 +29,7 @@
 #include "btfgmm/core/limits.hpp"
 #include "btfgmm/model/mixture.hpp"
 #include "btfgmm/model/model.hpp"
+#include "btfgmm/model/predict.hpp"
 #include "model/mixture_internal.hpp"
 
 namespace btfgmm::detail {
@@ -55,6 +56,30 @@ inline void check_decode_request(const DirectionSet& lights, const DirectionSet&
                                                     width, height, limits::kMaxImageSide));
 }
 
+// Throws Error(kArgument) for a query off the hemisphere or at a position that is not finite.
+inline void check_queries(std::span<const Query> queries) {
+  for (const Query& q : queries) {
+    check_direction(q.light, "light");
+    check_direction(q.view, "view");
+    if (!std::isfinite(q.x) || !std::isfinite(q.y))
+      throw Error(Error::Kind::kArgument,
+                  fmt::format("pixel position x={} y={} is not finite; give finite x and y "
+                              "(any real number: the tile repeats)",
+                              q.x, q.y));
+  }
+}
+
+// The tile image `tile` (tw x th, RGB) repeated over an image of width x height.
+inline void repeat_tile(const float* tile, int tw, int th, int width, int height, float* out) {
+  for (int y = 0; y < height; ++y)
+    for (int x = 0; x < width; ++x) {
+      const std::size_t p = std::size_t(y % th) * std::size_t(tw) + std::size_t(x % tw);
+      for (int c = 0; c < 3; ++c)
+        out[(std::size_t(y) * std::size_t(width) + std::size_t(x)) * 3 + std::size_t(c)] =
+            tile[p * 3 + std::size_t(c)];
+    }
+}
+
 // A pixel coordinate modulo the tile's side (the tile repeats); one already inside is
 // returned as is.
 inline double tile_coordinate(double x, int period) {
@@ -76,6 +101,18 @@ inline AngleInputs angle_inputs(const Direction& d, const std::array<double, kVa
                                 int n) {
   const OnionSlice o = to_onion_slice(d);
   return {o.alpha / unit[std::size_t(n)], o.beta / unit[std::size_t(n) + 1]};
+}
+
+// The inputs x_I of a query in model units (the tile position wrapped into the tile).
+inline void query_inputs(const BtfModel& model, const Query& q, double x[kInputs]) {
+  const auto& u = model.scaling.unit;
+  const AngleInputs l = angle_inputs(q.light, u, 2), v = angle_inputs(q.view, u, 4);
+  x[0] = tile_coordinate(q.x, model.width);
+  x[1] = tile_coordinate(q.y, model.height);
+  x[2] = l.alpha;
+  x[3] = l.beta;
+  x[4] = v.alpha;
+  x[5] = v.beta;
 }
 
 // ---- Eq. (9)-(10): the exponents t_m ------------------------------------------------------

@@ -398,17 +398,6 @@ inline void decode_tile(const DecodeGrid& g, TileScratch& s, std::size_t l, std:
     for (std::size_t bx = 0; bx < g.bx_count; ++bx) decode_block(g, s, mb, bx, by);
 }
 
-// The tile repeated over an image of width x height pixels.
-void repeat_tile(const std::vector<float>& tile, int tile_width, int tile_height, int width,
-                 int height, float* img) {
-  for (int y = 0; y < height; ++y)
-    for (int x = 0; x < width; ++x) {
-      const std::size_t p =
-          std::size_t(y % tile_height) * std::size_t(tile_width) + std::size_t(x % tile_width);
-      for (int c = 0; c < 3; ++c) img[(std::size_t(y) * width + x) * 3 + c] = tile[p * 3 + c];
-    }
-}
-
 }  // namespace
 
 Btf decode(const BtfModel& model, const DirectionSet& lights, const DirectionSet& views, int width,
@@ -426,7 +415,8 @@ Btf decode(const BtfModel& model, const DirectionSet& lights, const DirectionSet
     for (std::ptrdiff_t i = 0; i < pairs; ++i) {
       const std::size_t l = std::size_t(i) / views.size(), v = std::size_t(i) % views.size();
       decode_tile(grid, scratch, l, v, mean.at(lights[l], views[v]));
-      repeat_tile(scratch.tile, model.width, model.height, width, height, out.image(l, v));
+      detail::repeat_tile(scratch.tile.data(), model.width, model.height, width, height,
+                          out.image(l, v));
     }
   }
   return out;

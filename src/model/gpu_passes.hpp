@@ -9,8 +9,11 @@
 #include <memory>
 #include <span>
 #include <utility>
+#include <vector>
 
 #include "btfgmm/gpu/compute_device.hpp"
+#include "btfgmm/model/mixture.hpp"
+#include "model/conditional.hpp"
 
 namespace btfgmm::detail {
 
@@ -53,6 +56,27 @@ inline void sum_chunks(ComputeDevice& device, GpuKernel& kernel, GpuBuffer& from
   GpuBuffer* bound[] = {&from, &to};
   device.run(kernel, bound, bytes_of(push), std::uint32_t((per_chunk + kSumGroup - 1) / kSumGroup),
              push.held);
+}
+
+// Each component's parameters as refine_tables.comp and predict_colours.comp read them, 5 vec4:
+// (mu_6..8, 0), (mu_0, mu_1, 1/sigma^2_0, 1/sigma^2_1), the same of the view's angles (inputs
+// 4, 5), the same of the light's (inputs 2, 3), (log_weight_base, 0, 0, 0).
+constexpr std::size_t kComponentVectors = 5;
+inline std::vector<float> component_vectors(const ProductMixture& mix) {
+  std::vector<float> c(kComponentVectors * 4 * mix.size(), 0.0f);
+  for (std::size_t k = 0; k < mix.size(); ++k) {
+    const auto &mu = mix.mean[k], &var = mix.var[k];
+    float* at = &c[kComponentVectors * 4 * k];
+    for (std::size_t ch = 0; ch < 3; ++ch) at[ch] = float(mu[6 + ch]);
+    const std::size_t pairs[3] = {0, 4, 2};
+    for (std::size_t q = 0; q < 3; ++q)
+      for (std::size_t n = 0; n < 2; ++n) {
+        at[4 * (1 + q) + n] = float(mu[pairs[q] + n]);
+        at[4 * (1 + q) + 2 + n] = float(1.0 / var[pairs[q] + n]);
+      }
+    at[16] = float(log_weight_base(mix, k));
+  }
+  return c;
 }
 
 // The light sums' kernel, as sum_chunks runs it.

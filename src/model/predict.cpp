@@ -18,32 +18,6 @@
 namespace btfgmm {
 namespace {
 
-// Throws Error(kArgument) for a query off the hemisphere or at a position that is not finite.
-void check_queries(std::span<const Query> queries) {
-  for (const Query& q : queries) {
-    detail::check_direction(q.light, "light");
-    detail::check_direction(q.view, "view");
-    if (!std::isfinite(q.x) || !std::isfinite(q.y))
-      throw Error(Error::Kind::kArgument,
-                  fmt::format("pixel position x={} y={} is not finite; give finite x and y "
-                              "(any real number: the tile repeats)",
-                              q.x, q.y));
-  }
-}
-
-// The inputs x_I of a query in model units (the tile position wrapped into the tile).
-void query_inputs(const BtfModel& model, const Query& q, double x[kInputs]) {
-  const auto& u = model.scaling.unit;
-  const detail::AngleInputs l = detail::angle_inputs(q.light, u, 2),
-                            v = detail::angle_inputs(q.view, u, 4);
-  x[0] = detail::tile_coordinate(q.x, model.width);
-  x[1] = detail::tile_coordinate(q.y, model.height);
-  x[2] = l.alpha;
-  x[3] = l.beta;
-  x[4] = v.alpha;
-  x[5] = v.beta;
-}
-
 // One query: Eq. (9)-(10)'s exponents t (scratch of M; the Gaussians of x and y wrap around
 // the tile), Eq. (9)'s weights, Eq. (8)'s colour and Eq. (11)'s prediction.
 std::array<float, 3> predict_one(const BtfModel& model, const std::vector<double>& base,
@@ -53,7 +27,7 @@ std::array<float, 3> predict_one(const BtfModel& model, const std::vector<double
   const auto& u = model.scaling.unit;
   const detail::Periods periods = detail::model_periods(model);
   double x[kInputs];
-  query_inputs(model, q, x);
+  detail::query_inputs(model, q, x);
   for (std::size_t m = 0; m < mix.size(); ++m)
     t[m] = detail::log_weight(base[m], mix.mean[m], mix.var[m], x, periods);
   detail::conditional_weights(t);
@@ -72,7 +46,7 @@ std::array<float, 3> predict_one(const BtfModel& model, const std::vector<double
 void predict(const BtfModel& model, std::span<const Query> queries, std::span<float> rgb) {
   if (rgb.size() < queries.size() * 3)
     throw Error(Error::Kind::kArgument, "predict: the output holds fewer than 3 floats a query");
-  check_queries(queries);
+  detail::check_queries(queries);
   const detail::MeanBrdfInterpolator mean(model);
   const std::vector<double> base = detail::log_weight_bases(model.mixture);
   const std::ptrdiff_t n = std::ptrdiff_t(queries.size());

@@ -29,7 +29,6 @@ namespace {
 
 constexpr std::uint32_t kErrorGroup = 256;      // refine_errors.comp's local size
 constexpr std::uint32_t kTableGroup = 256;      // refine_tables.comp's local size
-constexpr std::size_t kComponentVectors = 5;    // vec4 a component (refine_tables.comp)
 constexpr std::size_t kBlock = 64;              // refine_normal.comp's block of G
 constexpr std::uint32_t kColumnsPerGroup = 64;  // refine_statistics.comp's columns a workgroup
 constexpr std::uint32_t kRows = 12;             // refine_statistics.comp's sums per column
@@ -182,20 +181,7 @@ void GpuPredictionPass::State::upload_samples() {
 // Per component its parameters (refine_tables.comp's 5 vec4), uploaded; the parts of t_m
 // (Eq. 9-10) made from them on the device, both ways.
 void GpuPredictionPass::State::make_tables(const ProductMixture& mix) {
-  std::vector<float> c(kComponentVectors * 4 * m, 0.0f);
-  for (std::size_t k = 0; k < m; ++k) {
-    const auto &mu = mix.mean[k], &var = mix.var[k];
-    float* at = &c[kComponentVectors * 4 * k];
-    for (std::size_t ch = 0; ch < 3; ++ch) at[ch] = float(mu[6 + ch]);
-    // (mu_a, mu_b, 1 / sigma^2_a, 1 / sigma^2_b) of the inputs (0, 1), (4, 5), (2, 3).
-    const std::size_t pairs[3] = {0, 4, 2};
-    for (std::size_t q = 0; q < 3; ++q)
-      for (std::size_t n = 0; n < 2; ++n) {
-        at[4 * (1 + q) + n] = float(mu[pairs[q] + n]);
-        at[4 * (1 + q) + 2 + n] = float(1.0 / var[pairs[q] + n]);
-      }
-    at[16] = float(log_weight_base(mix, k));
-  }
+  const std::vector<float> c = component_vectors(mix);
   device.upload_values<float>(*parameters, c);
   const TablesPush push{std::uint32_t(m),       std::uint32_t(s.pixels()), std::uint32_t(s.lights),
                         std::uint32_t(s.views), std::uint32_t(s.width),    float(periods[0]),

@@ -33,10 +33,13 @@ class GaussianMixture final : public Representation {
   std::uint32_t file_flags() const override;  // mixture_file_flags
   std::vector<std::pair<std::string, std::string>> details() const override;
   FactorEncoding encoding() const override;
+  // predict and decode on a compute device (model/predict_gpu.hpp): true for any device.
+  bool compute_on(std::shared_ptr<ComputeDevice> device) override;
 
  private:
   BtfModel model_;
   ModelFrame frame_;
+  std::shared_ptr<ComputeDevice> device_;  // null: the CPU
 };
 
 // fit_model (model/fit.hpp) with `s`: components M (default 600), iterations (default 40),

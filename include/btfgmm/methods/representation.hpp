@@ -8,6 +8,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <functional>
+#include <memory>
 #include <optional>
 #include <span>
 #include <string>
@@ -21,6 +22,8 @@
 #include "btfgmm/model/provenance.hpp"
 
 namespace btfgmm {
+
+class ComputeDevice;  // gpu/compute_device.hpp
 
 // What every representation of a tile knows about the data it was fitted to: the direction
 // sets, the tile's size and where it was cut, and the sample format.
@@ -134,6 +137,11 @@ class Representation {
   // The seed of that synthesis, for predict and decode. A method that does not synthesise
   // throws Error(kArgument) naming `option`.
   virtual void set_synthesis_seed(std::uint64_t seed, std::string_view option);
+
+  // Where predict and decode compute from now on: on `device` (a compute device,
+  // gpu/compute_device.hpp), or on the CPU for null. Returns false, and goes on computing on the
+  // CPU, where the method has no kernels for a device (by default).
+  virtual bool compute_on(std::shared_ptr<ComputeDevice> device);
 
   // The data it was fitted to and the fit's log, written to its model file and read back
   // (none recorded for older files); fit_and_record (methods/registry.hpp) records it.
