@@ -187,8 +187,9 @@ TEST(Gpu, EmOnTheGpuDecodesAsTheCpusWithinATenthOfALevel) {
 }
 
 // The default fit, EM and the refinement's Adam steps on the device: the steps start from
-// EM's parameters a rounding apart and carry the difference on; the error on the data is the
-// CPU's to 1 %.
+// EM's parameters a rounding apart; the error on the data is the CPU's to 1 % and the two
+// models decode to within 0.1 level (Adam's epsilon of the colour means keeps their first
+// steps from following the rounding's sign: refine_gradient.cpp, adam_epsilons).
 TEST(Gpu, TheDefaultFitMeasuresAsTheCpusWithinOnePercent) {
   REQUIRE_DEVICE(device);
   const DecodedPair r = fit_both(true);
@@ -196,8 +197,8 @@ TEST(Gpu, TheDefaultFitMeasuresAsTheCpusWithinOnePercent) {
               r.gpu_rmse, r.cpu_rmse, r.worst, r.difference_rms);
   EXPECT_LT(std::abs(r.gpu_rmse / r.cpu_rmse - 1.0), 0.01)
       << r.gpu_rmse << " against " << r.cpu_rmse;
-  EXPECT_LE(r.worst, 0.5);            // lavapipe: 0.29 level at most,
-  EXPECT_LE(r.difference_rms, 0.12);  // 0.097 RMS
+  EXPECT_LE(r.worst, 0.1);
+  EXPECT_LE(r.difference_rms, 0.02);
 }
 
 // M components from seed 3 after `iterations` EM iterations on the CPU.

@@ -41,10 +41,12 @@ struct Adam {
         m2(theta.size(), Real(0)),
         epsilon(eps) {}
 
-  // One step along `grad`, parameter i at the rate rate_of(i) (Algorithm 1's alpha).
-  template <class RateOf>
-  requires std::invocable<const RateOf&, std::size_t>
-  void step(std::span<const Real> grad, const RateOf& rate_of) {
+  // One step along `grad`, parameter i at the rate rate_of(i) (Algorithm 1's alpha) with
+  // epsilon_of(i) added to the root of its second moment.
+  template <class RateOf, class EpsilonOf>
+  requires std::invocable<const RateOf&, std::size_t> &&
+      std::invocable<const EpsilonOf&, std::size_t>
+  void step(std::span<const Real> grad, const RateOf& rate_of, const EpsilonOf& epsilon_of) {
     assert(grad.size() == theta.size());
     ++t;
     const Real c1 = Real(1.0 - std::pow(0.9, t)), c2 = Real(1.0 - std::pow(0.999, t));
@@ -52,8 +54,16 @@ struct Adam {
       m1[i] = Real(0.9) * m1[i] + Real(0.1) * grad[i];
       m2[i] = Real(0.999) * m2[i] + Real(0.001) * grad[i] * grad[i];
       const Real r = rate_of(i);
-      theta[i] -= r * (m1[i] / c1) / (std::sqrt(m2[i] / c2) + epsilon);
+      theta[i] -= r * (m1[i] / c1) / (std::sqrt(m2[i] / c2) + epsilon_of(i));
     }
+  }
+
+  // One step along `grad`, parameter i at the rate rate_of(i), every parameter with `epsilon`.
+  template <class RateOf>
+  requires std::invocable<const RateOf&, std::size_t>
+  void step(std::span<const Real> grad, const RateOf& rate_of) {
+    const Real e = epsilon;
+    step(grad, rate_of, [e](std::size_t) { return e; });
   }
 
   // One step along `grad`, every parameter at `rate`.

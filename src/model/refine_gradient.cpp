@@ -5,6 +5,7 @@
 #include <omp.h>
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <cstdint>
@@ -22,6 +23,7 @@
 #include "model/mixture_internal.hpp"
 #include "model/refine_gpu.hpp"
 #include "model/refine_internal.hpp"
+#include "model/refine_parameters.hpp"
 #include "model/refine_pass.hpp"
 
 namespace btfgmm {
@@ -351,65 +353,12 @@ std::unique_ptr<PredictionPass> make_prediction_pass(const SampleSet& samples, s
 
 namespace {
 
-// The parameters as one vector, 16 a component: a_m, mu_m0..8, s_m0..5.
-constexpr std::size_t kParams = 1 + kVariables + kInputs;
-
-std::vector<double> pack(const ProductMixture& mix) {
-  std::vector<double> th(mix.size() * kParams);
-  for (std::size_t k = 0; k < mix.size(); ++k) {
-    double* t = &th[k * kParams];
-    t[0] = std::log(mix.weight[k]);
-    for (int n = 0; n < kVariables; ++n) t[1 + n] = mix.mean[k][std::size_t(n)];
-    for (int n = 0; n < kInputs; ++n) t[1 + kVariables + n] = std::log(mix.var[k][std::size_t(n)]);
-  }
-  return th;
-}
-
-std::vector<double> pack(const PredictionGradient& g) {
-  std::vector<double> th(g.log_weight.size() * kParams);
-  for (std::size_t k = 0; k < g.log_weight.size(); ++k) {
-    double* t = &th[k * kParams];
-    t[0] = g.log_weight[k];
-    for (int n = 0; n < kVariables; ++n) t[1 + n] = g.mean[k][std::size_t(n)];
-    for (int n = 0; n < kInputs; ++n) t[1 + kVariables + n] = g.log_var[k][std::size_t(n)];
-  }
-  return th;
-}
-
-// The mixture of a parameter vector: w the softmax of a, the input means of x and y wrapped
-// into the tile, the variances kept where EM keeps them (bounded_variance).
-void unpack(const std::vector<double>& th, ProductMixture& mix, const detail::Periods& periods) {
-  double top = -INFINITY, sum = 0.0;
-  for (std::size_t k = 0; k < mix.size(); ++k) top = std::max(top, th[k * kParams]);
-  for (std::size_t k = 0; k < mix.size(); ++k) sum += std::exp(th[k * kParams] - top);
-  for (std::size_t k = 0; k < mix.size(); ++k) {
-    const double* t = &th[k * kParams];
-    mix.weight[k] = std::exp(t[0] - top) / sum;
-    for (int n = 0; n < kVariables; ++n)
-      mix.mean[k][std::size_t(n)] = detail::wrap_into_period(t[1 + n], periods[std::size_t(n)]);
-    for (int n = 0; n < kInputs; ++n)
-      mix.var[k][std::size_t(n)] = detail::bounded_variance(
-          std::exp(t[1 + kVariables + n]), kVarianceFloor, periods[std::size_t(n)]);
-  }
-}
-
-// The log variances of the parameter vector set to those of the mixture unpacked from it,
-// which bounded_variance kept within EM's floor and ceiling: a step past a bound is projected
-// back onto it, so that the next step away from the bound moves the variance at once.
-void keep_within_bounds(std::vector<double>& theta, const ProductMixture& mix) {
-  for (std::size_t k = 0; k < mix.size(); ++k)
-    for (int n = 0; n < kInputs; ++n)
-      theta[k * kParams + 1 + kVariables + std::size_t(n)] = std::log(mix.var[k][std::size_t(n)]);
-}
-
-// The Adam rate of each entry of the parameter vector (core/adam.hpp): `colour_rate` for the
-// colour means, `rate` for the others.
-auto rate_of_parameter(double rate, double colour_rate) {
-  return [rate, colour_rate](std::size_t i) {
-    const std::size_t j = i % kParams;
-    return j >= 7 && j < 10 ? colour_rate : rate;
-  };
-}
+using detail::adam_epsilons;
+using detail::keep_within_bounds;
+using detail::kParams;
+using detail::pack;
+using detail::rate_of_parameter;
+using detail::unpack;
 
 // The stopping rule on the validation error (GradientConfig): the lowest met, the error the
 // next gain is measured from, the validations since the last gain, the rate's halvings.
@@ -544,6 +493,7 @@ void gradient_epochs(const SampleSet& samples, ProductMixture& mix, PredictionPa
   const std::size_t validate_every = std::max<std::size_t>(1, batches / 4);
   ProductMixture best = mix;
   Adam adam(pack(mix));
+  std::array<double, kParams> epsilon{};
   Convergence rule;
   rule.best = rule.reference = out.error_final;
   Epochs at;
@@ -566,7 +516,9 @@ void gradient_epochs(const SampleSet& samples, ProductMixture& mix, PredictionPa
       at.weighed += g.weighed * double(g.samples);
       const double warm_up = std::min(1.0, double(adam.t + 1) / kWarmUpSteps);
       const double scale = warm_up * rule.rate_scale;
-      adam.step(pack(g), rate_of_parameter(config.rate * scale, config.colour_rate * scale));
+      if (adam.t == 0) epsilon = adam_epsilons(g);
+      adam.step(pack(g), rate_of_parameter(config.rate * scale, config.colour_rate * scale),
+                [&epsilon](std::size_t i) { return epsilon[i % kParams]; });
       unpack(adam.theta, mix, periods);
       keep_within_bounds(adam.theta, mix);
       ++out.steps;
