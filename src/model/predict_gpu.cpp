@@ -8,6 +8,7 @@
 
 #include <algorithm>
 #include <cstdint>
+#include <limits>
 #include <vector>
 
 #include "btfgmm/core/error.hpp"
@@ -79,6 +80,11 @@ std::shared_ptr<GpuBuffer> uploaded(ComputeDevice& device, const std::vector<flo
 std::vector<float> conditional_colours(ComputeDevice& device, const BtfModel& model,
                                        const QueryInputs& in, std::size_t per_run) {
   const std::size_t m = model.mixture.size();
+  if (in.queries > std::numeric_limits<std::uint32_t>::max())
+    throw Error(Error::Kind::kArgument,
+                fmt::format("{} queries at once are more than the GPU's prediction numbers "
+                            "(2^32 - 1); decode fewer images at once",
+                            in.queries));
   const std::size_t run = std::max<std::size_t>(1, std::min(in.queries, per_run));
   const double bytes = 80.0 * double(m) +
                        4.0 * double(in.pixel_xy.size() + in.light_ab.size() + in.view_ab.size()) +

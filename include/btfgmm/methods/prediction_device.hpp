@@ -1,6 +1,6 @@
 // Where a model's predictions are computed (docs/GPU.md, "Decoding on the GPU"): the device
-// `--device` of decode, eval and compare, and the `device` keyword of Python's Model.eval and
-// Model.decode, choose.
+// `--device` of decode, eval, compare and sweep, and the `device` keyword of Python's load and
+// fit, choose.
 #pragma once
 
 #include <string>

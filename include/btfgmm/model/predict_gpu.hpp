@@ -14,9 +14,10 @@
 
 namespace btfgmm {
 
-// predict() on `device`: the RGB of every query (3 floats a query in `rgb`), within a few
-// thousandths of a level of predict()'s double sums. Throws Error(kArgument) for a query off
-// the hemisphere or not finite, and Error(kIo) for a device fault, naming `device` cpu.
+// predict() on `device`: the RGB of every query (3 floats a query in `rgb`), within a
+// thousandth of a level of predict()'s double sums (tests: 1.6e-5 on lavapipe). Throws
+// Error(kArgument) for a query off the hemisphere or not finite, or more than 2^32 - 1
+// queries, and Error(kIo) for a device fault, naming `device` cpu.
 void predict(ComputeDevice& device, const BtfModel& model, std::span<const Query> queries,
              std::span<float> rgb);
 
