@@ -230,10 +230,6 @@ double refit_where_it_validates(const SampleSet& samples, ProductMixture& mix,
   return after;
 }
 
-}  // namespace
-
-namespace {
-
 // The seconds of the closed-form solve of a colour refit: timed on the first min(M, 1000)
 // components of `part`, scaled as M^3.
 double time_solve(const ColourNormalEquations& part, const ProductMixture& mix) {
@@ -253,10 +249,6 @@ double time_solve(const ColourNormalEquations& part, const ProductMixture& mix) 
   refit_colour_means(eq, head);
   return seconds_since(at) * std::pow(double(mix.size()) / double(m), 3.0);
 }
-
-}  // namespace
-
-namespace {
 
 // The samples the estimate of a colour refit sums: at most a sixteenth of the refit's
 // subsample, fewer as M grows (a sample costs up to M^2 / 2 products), at least 2,000 so that the
