@@ -206,8 +206,15 @@ TEST(Scale, MpiJobsFitForThePredictionTheModelOfOneProcess) {
   const std::vector<float> decoded = images(model);
   for (int np : {1, 2, 3}) {
     const fs::path out = dir / ("np" + std::to_string(np) + ".btfgmm");
-    const test::CliRun r = shell(under_mpirun(np) + fit + out.string() + " --threads 2", dir);
+    // The 3-process job tells its progress (process 0 prints it): the plan's timed passes are
+    // joined by every process, told or not (a job whose process 0 alone timed them hung).
+    std::string job = fit;
+    if (np == 3) job.replace(job.find(" -q "), 4, " ");
+    const test::CliRun r = shell(under_mpirun(np) + job + out.string() + " --threads 2", dir);
     ASSERT_EQ(r.status, 0) << np << " processes: " << r.err;
+    if (np == 3) {
+      EXPECT_NE(r.err.find("plan: EM on the "), std::string::npos) << r.err;
+    }
     EXPECT_EQ(model_of_file(out), one) << np << " processes";
     const BtfModel m = load_model(out);
     EXPECT_EQ(images(m), decoded) << np << " processes";

@@ -309,9 +309,13 @@ BtfModel fit_samples(const SampleSet& samples, const FitTile& tile, const FitCon
       resume ? resume->mixture : initial_mixture(samples, config.components, config.seed);
   EmConfig em_config = config.em;
   if (!em_config.device) em_config.device = open_compute_device(config.device);
-  if (watch && watch->planned)
-    watch->planned(
-        plan_fit(samples, config, mix, resume ? resume->result.iterations : 0, em_config.device));
+  // Every process of a distributed fit makes the plan, told or not: its timings are passes
+  // over every process's samples, which each process must join.
+  if (samples.processes || (watch && watch->planned)) {
+    const FitPlan plan =
+        plan_fit(samples, config, mix, resume ? resume->result.iterations : 0, em_config.device);
+    if (watch && watch->planned) watch->planned(plan);
+  }
   const EmResult em = fit_em(samples, mix, em_config, progress, resume ? &resume->result : nullptr,
                              after_iteration);
   if (state) *state = FitState{mix, em};

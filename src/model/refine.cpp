@@ -326,7 +326,12 @@ RefinementEstimate estimate_refinement(const SampleSet& samples, const ProductMi
 
 PredictionRefinement refine_for_prediction(const SampleSet& samples, ProductMixture& mix,
                                            int threads, const GradientConfig& gradient) {
-  if (gradient.planned) gradient.planned(estimate_refinement(samples, mix, threads, gradient));
+  // Every process of a distributed fit estimates, told or not: its timed passes are folded
+  // over the processes, which each must join.
+  if (gradient.planned || samples.processes) {
+    const RefinementEstimate estimate = estimate_refinement(samples, mix, threads, gradient);
+    if (gradient.planned) gradient.planned(estimate);
+  }
   const auto t0 = std::chrono::steady_clock::now();
   PredictionRefinement out;
   const detail::Selection validation{1, 0, detail::Selection::Part::kValidation};
