@@ -4,6 +4,7 @@
 #include <fmt/ranges.h>
 
 #include <algorithm>
+#include <filesystem>
 #include <map>
 #include <memory>
 #include <string>
@@ -13,6 +14,7 @@
 #include "btfgmm/btfgmm.hpp"
 #include "btfgmm/core/text.hpp"
 #include "btfgmm/methods/fit_options.hpp"
+#include "btfgmm/methods/neural_btf_checkpoint.hpp"
 #include "budget_fit.hpp"
 #include "cli_util.hpp"
 #include "commands.hpp"
@@ -48,6 +50,85 @@ std::string stopped_note(const btfgmm::Representation& r) {
   return {};
 }
 
+// Runs `fit` with SIGINT and SIGTERM asking it to stop; a fit stopped without a model (every
+// method's but the neural BTF's) ends the command: `out` is not written.
+template <class Fit>
+std::unique_ptr<btfgmm::Representation> fit_until_stopped(const std::string& out, const Fit& fit) {
+  const StopOnSignals stop_on_signals;
+  try {
+    return fit();
+  } catch (const Error&) {
+    if (!g_stop.load()) throw;
+    fmt::print(stderr, "interrupted: {} was not written\n", out);
+    std::exit(130);
+  }
+}
+
+// What a fit tells as it goes: the tile loaded, then the method's stages.
+btfgmm::FitProgress method_progress(const FitArguments& o, std::string_view method,
+                                    Clock::time_point t0) {
+  btfgmm::FitProgress progress;
+  if (!o.quiet) {
+    progress.started = [t0](const btfgmm::FitTile& t) { print_loaded(t, seconds_since(t0)); };
+    progress.progress = [method = std::string(method)](double fraction, std::string_view stage) {
+      fmt::print(stderr, "{} {:>5.1f}%  {}\n", method, 100.0 * fraction, stage);
+    };
+  }
+  progress.stop = &g_stop;
+  return progress;
+}
+
+// Writes the model of a method's fit to `out` and says what it is; a fit stopped by the user
+// that kept its best model met exits 130 (`state`: where it saved the state to go on from). A
+// whole fit removes the checkpoint it was named (`checkpoint`).
+void write_method_model(const FitArguments& o, const std::string& out,
+                        const btfgmm::Representation& r, const std::string& state,
+                        const std::string& checkpoint) {
+  const double fit_seconds = r.provenance().fit.seconds;
+  const std::uint64_t bytes = btfgmm::save_representation(r, out);
+  if (const std::string stopped = stopped_note(r); !stopped.empty() || g_stop.load()) {
+    // The model is written, whole, but not the whole fit's (a fit that kept its best model
+    // met) or after a stop asked for as it ended: said even with --quiet.
+    if (stopped.empty())
+      fmt::print(stderr, "interrupted as the fit ended: {} holds its whole model\n", out);
+    else if (!state.empty())
+      fmt::print(stderr,
+                 "interrupted {}: {} holds that model and is complete; the fit's state is in "
+                 "{}\ncontinue with: btfgmm fit --resume {}\n",
+                 stopped, out, state, state);
+    else
+      fmt::print(stderr,
+                 "interrupted {}: {} holds that model and is complete; fit again for the whole "
+                 "fit\n",
+                 stopped, out);
+    std::exit(130);
+  }
+  if (!checkpoint.empty()) std::filesystem::remove(checkpoint);
+  if (o.quiet) return;
+  fmt::print(stderr,
+             "wrote {}: {} {}, {} values, {} bytes, compression 1:{:.1f} (paper's count) / "
+             "1:{:.1f} (file), fit in {}\n",
+             out, r.method(), r.size_text(), r.parameter_count(), bytes, r.paper_ratio(),
+             r.file_ratio(bytes), human_seconds(fit_seconds));
+}
+
+// The neural BTF's fit with checkpoints: new, or resumed from `resume`; its state saved to
+// `state` when stopped, and every --checkpoint-every epochs where --checkpoint names it.
+std::unique_ptr<btfgmm::Representation> fit_neural_job(
+    const FitArguments& o, std::shared_ptr<const btfgmm::BtfSource> src, const btfgmm::Tile& tile,
+    const btfgmm::NeuralCheckpoint* resume, const std::string& state, Clock::time_point t0) {
+  const btfgmm::NeuralFitJob job{.options = o.options,
+                                 .input = o.input,
+                                 .output = o.out,
+                                 .tile = tile,
+                                 .checkpoint = state,
+                                 .every_epochs = o.checkpoint.empty() ? 0 : o.checkpoint_every,
+                                 .resume = resume};
+  return fit_until_stopped(resume ? resume->output : o.out, [&] {
+    return btfgmm::fit_neural_job(job, std::move(src), method_progress(o, "neural", t0));
+  });
+}
+
 void run_method_fit(const FitArguments& o) {
   if (o.input.empty() || o.out.empty())
     throw Error(Error::Kind::kArgument, "fit needs an input BTF and -o MODEL");
@@ -56,45 +137,51 @@ void run_method_fit(const FitArguments& o) {
   const auto t0 = Clock::now();
   auto src = std::make_shared<const btfgmm::BtfSource>(btfgmm::BtfSource::open(o.input));
   const btfgmm::Tile tile = o.tile.empty() ? btfgmm::Tile{} : tile_option(*src, o.tile, o.quiet);
-  btfgmm::FitProgress progress;
-  if (!o.quiet) {
-    progress.started = [&](const btfgmm::FitTile& t) { print_loaded(t, seconds_since(t0)); };
-    progress.progress = [&](double fraction, std::string_view stage) {
-      fmt::print(stderr, "{} {:>5.1f}%  {}\n", o.options.method, 100.0 * fraction, stage);
-    };
+  // A method whose declarations take a checkpoint (the neural BTF's) saves its state when
+  // stopped: to --checkpoint, else MODEL.ckpt, as the mixture's fit does.
+  const bool saves_state =
+      btfgmm::method_parameter(btfgmm::find_method(o.options.method), "checkpoint") != nullptr;
+  const std::string state = !saves_state           ? std::string()
+                            : o.checkpoint.empty() ? o.out + ".ckpt"
+                                                   : o.checkpoint;
+  if (!state.empty()) check_output_file(state, true);
+  const std::unique_ptr<btfgmm::Representation> r =
+      !saves_state ? fit_until_stopped(o.out,
+                                       [&] {
+                                         return btfgmm::fit_representation(
+                                             o.options, o.input, std::move(src), tile,
+                                             method_progress(o, o.options.method, t0));
+                                       })
+                   : fit_neural_job(o, std::move(src), tile, nullptr, state, t0);
+  write_method_model(o, o.out, *r, state, o.checkpoint);
+}
+
+// fit --resume of a neural fit's checkpoint: its input, tile, settings and output (--iterations
+// the epochs in all); the checkpoint keeps the state unless --checkpoint names another.
+void run_neural_resume(const FitArguments& given) {
+  btfgmm::NeuralCheckpoint k = btfgmm::load_neural_checkpoint(given.resume);
+  FitArguments o = given;
+  o.options.method = "neural";
+  check_fit_arguments(o, btfgmm::FitRoute::kResume, o.resume);
+  // --iterations N: the epochs in all, as the mixture's resume takes it.
+  if (o.has("iterations")) {
+    if (o.options.iterations < k.state.epoch + 1)
+      throw Error(Error::Kind::kArgument,
+                  fmt::format("{} {}: the fit in '{}' stands in epoch {}; give at least {} (the "
+                              "epochs in all, not those to add)",
+                              command_line_option("iterations"), o.options.iterations, o.resume,
+                              k.state.epoch + 1, k.state.epoch + 1));
+    k.options.iterations = o.options.iterations;
   }
-  progress.stop = &g_stop;
-  std::unique_ptr<btfgmm::Representation> r;
-  {
-    const StopOnSignals stop_on_signals;
-    try {
-      r = btfgmm::fit_representation(o.options, o.input, std::move(src), tile, progress);
-    } catch (const Error&) {
-      if (!g_stop.load()) throw;
-      fmt::print(stderr, "interrupted: {} was not written\n", o.out);
-      std::exit(130);
-    }
-  }
-  const double fit_seconds = r->provenance().fit.seconds;
-  const std::uint64_t bytes = btfgmm::save_representation(*r, o.out);
-  if (const std::string stopped = stopped_note(*r); !stopped.empty() || g_stop.load()) {
-    // The model is written, whole, but not the whole fit's (a fit that kept its best model
-    // met) or after a stop asked for as it ended: said even with --quiet.
-    if (stopped.empty())
-      fmt::print(stderr, "interrupted as the fit ended: {} holds its whole model\n", o.out);
-    else
-      fmt::print(stderr,
-                 "interrupted {}: {} holds that model and is complete; fit again for the whole "
-                 "fit\n",
-                 stopped, o.out);
-    std::exit(130);
-  }
-  if (o.quiet) return;
-  fmt::print(stderr,
-             "wrote {}: {} {}, {} values, {} bytes, compression 1:{:.1f} (paper's count) / "
-             "1:{:.1f} (file), fit in {}\n",
-             o.out, o.options.method, r->size_text(), r->parameter_count(), bytes, r->paper_ratio(),
-             r->file_ratio(bytes), human_seconds(fit_seconds));
+  const std::string checkpoint = o.checkpoint.empty() ? o.resume : o.checkpoint;
+  check_output_file(checkpoint, true);
+  check_output_file(k.output, true);  // the model a stopped fit wrote is its to replace
+  if (!o.quiet)
+    fmt::print(stderr, "resuming from {} at step {} of epoch {}\n", o.resume, k.state.steps_done,
+               k.state.epoch + 1);
+  o.checkpoint = checkpoint;  // saved every --checkpoint-every epochs, removed at the end
+  const auto r = fit_neural_job(o, nullptr, {}, &k, checkpoint, Clock::now());
+  write_method_model(o, k.output, *r, checkpoint, checkpoint);
 }
 
 // With --budget or --ratio, the method and size are chosen (fit_budget.cpp): the options that
@@ -118,14 +205,15 @@ void run_fit_within_budget(const FitArguments& o) {
 // An MPI job (mpirun) fits the mixture over its processes; an error in one ends them all.
 void run_fit_command(const FitArguments& o) {
   if (o.given.count("--budget") || o.given.count("--ratio")) return run_fit_within_budget(o);
+  const bool neural_resume = !o.resume.empty() && btfgmm::is_neural_checkpoint_file(o.resume);
   const std::shared_ptr<btfgmm::Communicator> processes = job_processes();
-  if (o.options.method != btfgmm::kMixtureMethod) {
+  if (o.options.method != btfgmm::kMixtureMethod || neural_resume) {
     if (processes && processes->size() > 1)
       throw Error(Error::Kind::kArgument,
                   fmt::format("--method {} runs in one process; start it without mpirun (only "
                               "the Gaussian mixture's EM is split over processes)",
-                              o.options.method));
-    return run_method_fit(o);
+                              neural_resume ? "neural" : o.options.method));
+    return neural_resume ? run_neural_resume(o) : run_method_fit(o);
   }
   if (!processes || processes->size() == 1) return run_mixture_fit(o, processes);
   try {
@@ -186,15 +274,17 @@ void add_budget_and_run_options(CLI::App& app, FitArguments& a) {
                           quick_search_methods()));
   f->add_option("-o,--output", fit->out, "The model file to write (.btfgmm)");
   f->add_option("--checkpoint", fit->checkpoint,
-                "Save the fit's state here (atomically) every --checkpoint-every iterations and "
-                "on SIGINT/SIGTERM; removed when the model is written");
-  f->add_option("--checkpoint-every", fit->checkpoint_every, "Iterations between checkpoints")
+                "Save the fit's state here (atomically) every --checkpoint-every iterations (the "
+                "neural BTF: epochs) and on SIGINT/SIGTERM; removed when the model is written "
+                "(gm and neural)");
+  f->add_option("--checkpoint-every", fit->checkpoint_every,
+                "EM iterations (the neural BTF: epochs) between checkpoints")
       ->check(declared_range<int>("checkpoint_every"))
       ->capture_default_str();
   f->add_option("--resume", fit->resume,
                 "Continue an interrupted fit from its checkpoint (input, tile, settings and "
-                "output come from it; --iterations N goes on to N in all); the model equals an "
-                "uninterrupted fit's, bit for bit")
+                "output come from it; the mixture's --iterations N goes on to N in all); the "
+                "model equals an uninterrupted fit's, bit for bit")
       ->excludes(f->get_option("input"));
   f->add_option("--continue", fit->continue_from,
                 "Continue a finished Gaussian mixture (a .btfgmm) to --iterations N in all, "

@@ -119,9 +119,10 @@ def main():
                                     work, r"^lpca +0")
         check("fit --method lpca", code, took, err)
         # The neural BTF's epochs: the lowest held-out error met is written, complete, and its
-        # provenance says the fit was stopped.
+        # provenance says the fit was stopped; its state is saved, and --resume takes it on.
         code, took, err = run_until(fit + ["--method", "neural", "--width", "256",
-                                           "--iterations", "1000", "-o", "neural.btfgmm"],
+                                           "--iterations", "1000", "--checkpoint", "neural.ckpt",
+                                           "-o", "neural.btfgmm"],
                                     work, r"^neural .*epoch 1 of")
         check("fit --method neural", code, took, err, (130,))
         info = subprocess.run([btfgmm, "info", "neural.btfgmm"], cwd=work, capture_output=True,
@@ -129,6 +130,11 @@ def main():
         if info.returncode != 0 or "stopped by the user" not in info.stdout:
             sys.exit("fit --method neural: the model of a stopped fit is not written, or its "
                      "provenance does not say it was stopped:\n" + info.stdout + info.stderr)
+        if "fit --resume neural.ckpt" not in err:
+            sys.exit("fit --method neural: a stopped fit does not say how to go on:\n" + err)
+        must_succeed([btfgmm, "fit", "--resume", "neural.ckpt", "--iterations", "3"], work)
+        if os.path.exists(os.path.join(work, "neural.ckpt")):
+            sys.exit("fit --resume of a neural fit: the checkpoint is kept after the model")
         code, took, err = run_until([btfgmm, "sweep", "btf", "--tile", "0,0,16,16",
                                      "-o", "sweep"], work, r"%|fitting|gm", delay=1.0)
         check("sweep", code, took, err)

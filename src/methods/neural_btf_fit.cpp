@@ -16,6 +16,7 @@
 #include "btfgmm/core/error.hpp"
 #include "btfgmm/core/text.hpp"
 #include "btfgmm/methods/neural_btf.hpp"
+#include "btfgmm/methods/neural_btf_checkpoint.hpp"
 #include "btfgmm/model/refine.hpp"
 #include "core/adam.hpp"
 #include "core/random.hpp"
@@ -245,34 +246,115 @@ int most_epochs(const Samples& s, const FitOptions& o) {
   return int(std::clamp<std::size_t>(kNeuralDefaultSteps / steps, 1, kNeuralDefaultEpochs));
 }
 
-// The epochs of Adam steps, validated every quarter epoch; the best parameters met.
-Best train(const Samples& s, const FitOptions& o, int epochs) {
+// Where a fit stands (NeuralFitState, methods/neural_btf_checkpoint.hpp): Adam, the best
+// parameters met, the stopping rule, the next step.
+struct Training {
+  Adam<float> adam;
+  Best best;
+  Convergence rule;
+  int epoch = 0;
+  std::size_t steps_done = 0;
+  bool validation_due = false;
+};
+
+Training started(const Samples& s, const FitOptions& o) {
   Adam<float> adam(initial_theta(s, o.seed));
   Best best{.theta = adam.theta, .rmse = validation_rmse(s, adam.theta)};
-  Convergence rule;
+  return {.adam = std::move(adam), .best = std::move(best), .rule = {}};
+}
+
+NeuralFitState state_of(const Training& t) {
+  return {.epoch = t.epoch,
+          .steps_done = t.steps_done,
+          .validation_due = t.validation_due,
+          .theta = t.adam.theta,
+          .first_moment = t.adam.m1,
+          .second_moment = t.adam.m2,
+          .adam_steps = t.adam.t,
+          .best_theta = t.best.theta,
+          .best_rmse = t.best.rmse,
+          .rule_best = t.rule.best,
+          .rule_reference = t.rule.reference,
+          .rate_scale = t.rule.rate_scale,
+          .since_gain = t.rule.since_gain,
+          .plateaus = t.rule.plateaus};
+}
+
+// The fit a checkpoint's state holds; Error(kFormat) where its sizes are not this shape's on
+// this tile, or it stands past the epochs or steps the fit takes.
+Training resumed(const Samples& s, const NeuralFitState& k, int epochs, std::size_t steps) {
+  const std::size_t n =
+      detail::parameter_count(detail::network_shape(s.shape)) + s.pixels * s.shape.latent;
+  if (k.theta.size() != n || k.first_moment.size() != n || k.second_moment.size() != n ||
+      k.best_theta.size() != n)
+    throw Error(Error::Kind::kFormat,
+                fmt::format("the checkpoint's state holds {} parameters where the network and "
+                            "latents of this tile hold {}; start the fit again without {}",
+                            k.theta.size(), n, option_name("resume")));
+  if (k.epoch < 0 || k.epoch > epochs || k.steps_done > steps || k.adam_steps < 0 ||
+      (k.validation_due && k.steps_done == 0))
+    throw Error(Error::Kind::kFormat,
+                fmt::format("the checkpoint stands at step {} of epoch {}, outside the fit's {} "
+                            "epochs of {} steps; start the fit again without {}",
+                            k.steps_done, k.epoch + 1, epochs, steps, option_name("resume")));
+  Adam<float> adam(k.theta);
+  adam.m1 = k.first_moment;
+  adam.m2 = k.second_moment;
+  adam.t = k.adam_steps;
+  return {.adam = std::move(adam),
+          .best = {.theta = k.best_theta, .rmse = k.best_rmse},
+          .rule = {.best = k.rule_best,
+                   .reference = k.rule_reference,
+                   .rate_scale = k.rate_scale,
+                   .since_gain = k.since_gain,
+                   .plateaus = k.plateaus},
+          .epoch = k.epoch,
+          .steps_done = k.steps_done,
+          .validation_due = k.validation_due};
+}
+
+// The epochs of Adam steps, validated every quarter epoch; the best parameters met. The state
+// is saved after every `c.every_epochs` epochs and when stopped; a fit from `c.resume` goes on
+// as the fit that saved it would have.
+Best train(const Samples& s, const FitOptions& o, int epochs, const NeuralCheckpointing& c) {
   std::vector<std::uint32_t> order = s.training;
   const std::size_t batch = batch_size(s), steps = (order.size() + batch - 1) / batch;
   const std::size_t every = std::max<std::size_t>(1, steps / 4);
-  for (int epoch = 0; epoch < epochs; ++epoch) {
-    shuffle_for_epoch(order, o.seed, epoch);
-    for (std::size_t k = 0; k < steps; ++k) {
-      const std::size_t first = k * batch;
-      adam_step(s, std::span(order).subspan(first, std::min(batch, order.size() - first)),
-                rule.rate_scale, o.threads, adam);
-      if (stop_asked(o)) {  // the best met is kept: the file says the fit was stopped
-        best.stopped_in_epoch = epoch + 1;
-        return best;
+  Training t = c.resume ? resumed(s, *c.resume, epochs, steps) : started(s, o);
+  for (int e = 0; e < t.epoch; ++e) shuffle_for_epoch(order, o.seed, e);  // each shuffles the last
+  for (; t.epoch < epochs; ++t.epoch, t.steps_done = 0) {
+    shuffle_for_epoch(order, o.seed, t.epoch);
+    for (std::size_t k = t.validation_due ? t.steps_done - 1 : t.steps_done; k < steps; ++k) {
+      if (!t.validation_due) {
+        const std::size_t first = k * batch;
+        adam_step(s, std::span(order).subspan(first, std::min(batch, order.size() - first)),
+                  t.rule.rate_scale, o.threads, t.adam);
+        t.steps_done = k + 1;
+        if (stop_asked(o)) {  // the best met is kept: the file says the fit was stopped
+          t.validation_due = true;
+          if (c.save) c.save(state_of(t));
+          t.best.stopped_in_epoch = t.epoch + 1;
+          return t.best;
+        }
       }
+      t.validation_due = false;
       if ((k + 1) % every != 0 && k + 1 != steps) continue;
-      const double rmse = validation_rmse(s, adam.theta);
-      if (rmse < best.rmse) best = {.theta = adam.theta, .rmse = rmse};
-      detail::report(o, (double(epoch) + double(k + 1) / double(steps)) / double(epochs),
-                     fmt::format("epoch {} of {}: held-out RMSE {:.3f} (best {:.3f})", epoch + 1,
-                                 epochs, rmse, best.rmse));
-      if (rule.converged(rmse)) return best;
+      const double rmse = validation_rmse(s, t.adam.theta);
+      if (rmse < t.best.rmse) t.best = {.theta = t.adam.theta, .rmse = rmse};
+      detail::report(o, (double(t.epoch) + double(k + 1) / double(steps)) / double(epochs),
+                     fmt::format("epoch {} of {}: held-out RMSE {:.3f} (best {:.3f})", t.epoch + 1,
+                                 epochs, rmse, t.best.rmse));
+      if (t.rule.converged(rmse)) return t.best;
+    }
+    if (c.save && c.every_epochs > 0 && (t.epoch + 1) % c.every_epochs == 0 &&
+        t.epoch + 1 < epochs) {
+      Training next = t;  // the state before the next epoch's first step
+      ++next.epoch;
+      next.steps_done = 0;
+      c.save(state_of(next));
     }
   }
-  return best;
+  return t.best;
 }
 
 void check_tile(const Btf& tile) {
@@ -288,6 +370,11 @@ void check_tile(const Btf& tile) {
 }  // namespace
 
 std::unique_ptr<Representation> fit_neural_btf(const Btf& tile, const FitOptions& o) {
+  return fit_neural_btf(tile, o, NeuralCheckpointing{});
+}
+
+std::unique_ptr<Representation> fit_neural_btf(const Btf& tile, const FitOptions& o,
+                                               const NeuralCheckpointing& checkpointing) {
   const NeuralShape shape = shape_of(o);
   check_tile(tile);
   const FactorEncoding e = stored_encoding(o);
@@ -295,7 +382,7 @@ std::unique_ptr<Representation> fit_neural_btf(const Btf& tile, const FitOptions
   detail::report(o, 0.0, "samples and held-out set");
   const Samples s = samples_of(tile, shape);
   const int epochs = most_epochs(s, o);
-  Best best = train(s, o, epochs);
+  Best best = train(s, o, epochs, checkpointing);
   if (best.stopped_in_epoch == 0)
     detail::report(o, 1.0, fmt::format("done: held-out RMSE {:.3f}", best.rmse));
   // Stored as the file stores them: the model in memory evaluates as the one read back.

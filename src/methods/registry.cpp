@@ -281,6 +281,14 @@ constexpr FitParameter kNeuralParameters[] = {
      .help = "the latents' storage: compact (quantised with a step per latent dimension, "
              "predicted from neighbouring texels, zstd), f32, f16 or q8; the network is always "
              "16-bit floats"},
+    // The fit job's checkpoints and resuming (methods/neural_btf_checkpoint.hpp).
+    {.field = "checkpoint", .type = T::kText, .routes = FitRoute::kNew | FitRoute::kResume},
+    {.field = "checkpoint_every",
+     .type = T::kInteger,
+     .min = 1,
+     .max = kMaxSize,
+     .routes = FitRoute::kNew | FitRoute::kResume},
+    {.field = "resume", .type = T::kText, .routes = unsigned(FitRoute::kResume)},
 };
 
 // The neural BTF's row (Rainer, Jakob, Ghosh & Weyrich 2019).
