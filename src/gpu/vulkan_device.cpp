@@ -100,6 +100,7 @@ VulkanDevice::VulkanDevice(VkPhysicalDevice pd, std::uint32_t family)
 
 VulkanDevice::~VulkanDevice() {
   vkDeviceWaitIdle(device_);
+  kernels_.clear();
   staging_.reset();
   if (fence_) vkDestroyFence(device_, fence_, nullptr);
   if (pool_) vkDestroyCommandPool(device_, pool_, nullptr);

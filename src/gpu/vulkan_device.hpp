@@ -5,9 +5,11 @@
 
 #include <vulkan/vulkan.h>
 
+#include <map>
 #include <memory>
 #include <mutex>
 #include <string>
+#include <tuple>
 
 #include "btfgmm/gpu/compute_device.hpp"
 
@@ -83,6 +85,10 @@ class VulkanDevice final : public ComputeDevice {
   std::shared_ptr<GpuBuffer> staging_;
   void* mapped_ = nullptr;
   std::mutex mutex_;
+  // Each kernel made once (its shader compiled by the driver) and kept: a command that runs the
+  // same kernel on many batches (decode's images, sweep's models) builds its pipeline once.
+  // run() binds its buffers and waits under mutex_, so callers may share one.
+  std::map<std::tuple<std::string, int, std::size_t>, std::shared_ptr<GpuKernel>> kernels_;
 };
 
 }  // namespace detail

@@ -95,10 +95,14 @@ void make_pipeline(VkDevice device, GpuKernel& k, const std::string& name) {
 
 std::shared_ptr<GpuKernel> VulkanDevice::kernel(std::string_view name, int buffers,
                                                 std::size_t push_bytes) {
-  auto k = std::make_shared<GpuKernel>(device_, buffers, push_bytes);
+  const std::lock_guard lock(mutex_);
+  std::shared_ptr<GpuKernel>& k = kernels_[{std::string(name), buffers, push_bytes}];
+  if (k) return k;
+  auto made = std::make_shared<GpuKernel>(device_, buffers, push_bytes);
   const std::string n(name);
-  make_descriptors(device_, *k, n);
-  make_pipeline(device_, *k, n);
+  make_descriptors(device_, *made, n);
+  make_pipeline(device_, *made, n);
+  k = std::move(made);
   return k;
 }
 
