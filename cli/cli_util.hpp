@@ -16,6 +16,7 @@
 #include <nlohmann/json.hpp>
 #include <set>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "btfgmm/btfgmm.hpp"
@@ -117,6 +118,24 @@ inline void check_output_file(const std::filesystem::path& out, bool overwrite) 
         Error::Kind::kArgument,
         fmt::format("'{}' exists; give a new name or add --overwrite to replace it", out.string()));
   check_writable_folder(dir, out);
+}
+
+// A fit's checkpoint is a file of its own: not the model the fit writes (which a finished fit
+// would remove with it), nor its input.
+inline void check_checkpoint_apart(const std::filesystem::path& checkpoint,
+                                   const std::filesystem::path& model,
+                                   const std::filesystem::path& input) {
+  std::error_code ec;
+  const auto same = [&](const std::filesystem::path& a, const std::filesystem::path& b) {
+    return !b.empty() &&
+           std::filesystem::weakly_canonical(a, ec) == std::filesystem::weakly_canonical(b, ec);
+  };
+  for (const auto& [other, what] : {std::pair{&model, "model"}, std::pair{&input, "input"}})
+    if (same(checkpoint, *other))
+      throw Error(Error::Kind::kArgument,
+                  fmt::format("--checkpoint '{}' is the fit's {}; give the checkpoint a name of "
+                              "its own",
+                              checkpoint.string(), what));
 }
 
 inline nlohmann::json set_json(const btfgmm::DirectionSet& s) {

@@ -57,8 +57,8 @@ std::unique_ptr<btfgmm::Representation> fit_until_stopped(const std::string& out
   const StopOnSignals stop_on_signals;
   try {
     return fit();
-  } catch (const Error&) {
-    if (!g_stop.load()) throw;
+  } catch (const Error& e) {
+    if (!g_stop.load() || e.kind() == Error::Kind::kIo) throw;  // a failed save is said
     fmt::print(stderr, "interrupted: {} was not written\n", out);
     std::exit(130);
   }
@@ -80,13 +80,19 @@ btfgmm::FitProgress method_progress(const FitArguments& o, std::string_view meth
 
 // Writes the model of a method's fit to `out` and says what it is; a fit stopped by the user
 // that kept its best model met exits 130 (`state`: where it saved the state to go on from). A
-// whole fit removes the checkpoint it was named (`checkpoint`).
+// whole fit removes the state (a stale one of an earlier stop) and the checkpoint it was named.
 void write_method_model(const FitArguments& o, const std::string& out,
                         const btfgmm::Representation& r, const std::string& state,
                         const std::string& checkpoint) {
   const double fit_seconds = r.provenance().fit.seconds;
   const std::uint64_t bytes = btfgmm::save_representation(r, out);
-  if (const std::string stopped = stopped_note(r); !stopped.empty() || g_stop.load()) {
+  const std::string stopped = stopped_note(r);
+  if (stopped.empty()) {  // a whole fit's model: no state to go on from is left behind
+    std::error_code ec;
+    for (const std::string& path : {state, checkpoint})
+      if (!path.empty()) std::filesystem::remove(path, ec);
+  }
+  if (!stopped.empty() || g_stop.load()) {
     // The model is written, whole, but not the whole fit's (a fit that kept its best model
     // met) or after a stop asked for as it ended: said even with --quiet.
     if (stopped.empty())
@@ -103,7 +109,6 @@ void write_method_model(const FitArguments& o, const std::string& out,
                  stopped, out);
     std::exit(130);
   }
-  if (!checkpoint.empty()) std::filesystem::remove(checkpoint);
   if (o.quiet) return;
   fmt::print(stderr,
              "wrote {}: {} {}, {} values, {} bytes, compression 1:{:.1f} (paper's count) / "
@@ -144,7 +149,10 @@ void run_method_fit(const FitArguments& o) {
   const std::string state = !saves_state           ? std::string()
                             : o.checkpoint.empty() ? o.out + ".ckpt"
                                                    : o.checkpoint;
-  if (!state.empty()) check_output_file(state, true);
+  if (!state.empty()) {
+    check_output_file(state, true);
+    check_checkpoint_apart(state, o.out, o.input);
+  }
   const std::unique_ptr<btfgmm::Representation> r =
       !saves_state ? fit_until_stopped(o.out,
                                        [&] {
@@ -176,11 +184,18 @@ void run_neural_resume(const FitArguments& given) {
   const std::string checkpoint = o.checkpoint.empty() ? o.resume : o.checkpoint;
   check_output_file(checkpoint, true);
   check_output_file(k.output, true);  // the model a stopped fit wrote is its to replace
+  check_checkpoint_apart(checkpoint, k.output, k.input);
   if (!o.quiet)
     fmt::print(stderr, "resuming from {} at step {} of epoch {}\n", o.resume, k.state.steps_done,
                k.state.epoch + 1);
   o.checkpoint = checkpoint;  // saved every --checkpoint-every epochs, removed at the end
-  const auto r = fit_neural_job(o, nullptr, {}, &k, checkpoint, Clock::now());
+  std::unique_ptr<btfgmm::Representation> r;
+  try {
+    r = fit_neural_job(o, nullptr, {}, &k, checkpoint, Clock::now());
+  } catch (const Error& e) {
+    if (e.kind() != Error::Kind::kFormat) throw;
+    throw Error(e.kind(), fmt::format("checkpoint '{}': {}", o.resume, e.what()));
+  }
   write_method_model(o, k.output, *r, checkpoint, checkpoint);
 }
 
@@ -283,8 +298,8 @@ void add_budget_and_run_options(CLI::App& app, FitArguments& a) {
       ->capture_default_str();
   f->add_option("--resume", fit->resume,
                 "Continue an interrupted fit from its checkpoint (input, tile, settings and "
-                "output come from it; the mixture's --iterations N goes on to N in all); the "
-                "model equals an uninterrupted fit's, bit for bit")
+                "output come from it; --iterations N goes on to N iterations, or the neural BTF's "
+                "epochs, in all); the model equals an uninterrupted fit's, bit for bit")
       ->excludes(f->get_option("input"));
   f->add_option("--continue", fit->continue_from,
                 "Continue a finished Gaussian mixture (a .btfgmm) to --iterations N in all, "

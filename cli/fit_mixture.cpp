@@ -297,7 +297,10 @@ void run_mixture_fit(const FitArguments& options,
   r.processes = processes;
   const bool resumed = r.resume && !r.resume->finished_model;
   check_output_file(r.output, o.overwrite || resumed);
-  if (!r.checkpoint.empty()) check_output_file(r.checkpoint, true);
+  if (!r.checkpoint.empty()) {
+    check_output_file(r.checkpoint, true);
+    check_checkpoint_apart(r.checkpoint, r.output, r.input);
+  }
   if (!o.log.empty()) check_output_file(o.log, o.overwrite || resumed);
   const auto t0 = Clock::now();
   choose_fit_tile(r, o.tile, o.quiet);

@@ -169,7 +169,7 @@ TEST(NeuralResume, ATruncatedOrDamagedCheckpointIsRefusedByName) {
   // The fuzz target's seed (tests/fuzz/corpus/fuzz_neural_checkpoint) is a checkpoint.
   const NeuralCheckpoint seed = load_neural_checkpoint(
       fs::path(BTFGMM_TEST_DATA) / "../fuzz/corpus/fuzz_neural_checkpoint/seed_small.ckpt");
-  EXPECT_EQ(seed.state.theta.size(), 10u);
+  EXPECT_EQ(seed.state.theta.size(), 71u);  // 2 x 2 texels x L = 2, and 11-4-3 weights
   EXPECT_EQ(seed.options.width, 4u);
   // The mixture's checkpoint is not a neural one, nor the reverse.
   FitCheckpoint mixture;
@@ -183,9 +183,10 @@ TEST(NeuralResume, ATruncatedOrDamagedCheckpointIsRefusedByName) {
 }
 
 #ifdef BTFGMM_CLI_PATH
-// The command: a fit stopped by SIGINT (as the progress line of its second epoch shows) writes
-// its best model and its state; `fit --resume` writes the uninterrupted fit's model and
-// removes the checkpoint; a resume on other data, or with another size, is refused.
+// The command: a fit with --checkpoint writes the model of one without and removes the
+// checkpoint; `fit --resume` of a stopped fit's state writes the uninterrupted fit's model
+// and removes the checkpoint; a resume on other data, or with another size, is refused; the
+// checkpoint may not be the model. (tests/sigint_check.py stops the command itself.)
 TEST(NeuralResume, TheCommandStopsAndResumesToTheSameModel) {
   const fs::path dir =
       fs::temp_directory_path() / ("btfgmm_neural_cli_" + std::to_string(::getpid()));
@@ -242,6 +243,15 @@ TEST(NeuralResume, TheCommandStopsAndResumesToTheSameModel) {
   EXPECT_NE(other.status, 0);
   EXPECT_NE(other.err.find("is not what checkpoint"), std::string::npos) << other.err;
   EXPECT_TRUE(fs::exists(ck));
+  // The checkpoint is a file of its own; a whole fit leaves no stale state of an earlier stop.
+  EXPECT_NE(run_cli(fit + "--checkpoint " + (dir / "m.btfgmm").string() + " -o " +
+                        (dir / "m.btfgmm").string(),
+                    "nr")
+                .err.find("is the fit's model"),
+            std::string::npos);
+  std::ofstream(dir / "m.btfgmm.ckpt", std::ios::binary) << copy;
+  ASSERT_EQ(run_cli(fit + "-q -o " + (dir / "m.btfgmm").string(), "nr").status, 0);
+  EXPECT_FALSE(fs::exists(dir / "m.btfgmm.ckpt"));
   // Another method takes no checkpoint.
   EXPECT_NE(run_cli("fit " + btf + " --method pca-btf --checkpoint " + ck + " -o " +
                         (dir / "pca.btfgmm").string(),

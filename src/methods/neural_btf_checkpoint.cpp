@@ -18,6 +18,7 @@
 #include "btfgmm/methods/registry.hpp"
 #include "btfgmm/model/checkpoint.hpp"
 #include "btfgmm/model/provenance.hpp"
+#include "methods/neural_btf_internal.hpp"
 #include "model/byte_io.hpp"
 
 namespace btfgmm {
@@ -29,6 +30,10 @@ constexpr const char* kWhat = "neural fit checkpoint";
 constexpr const char* kFix = "start the fit again without `resume`";
 // The precision of options that set none (the method's default file).
 constexpr std::uint32_t kNoPrecision = 255;
+// The most epochs a fit takes (the declaration of `iterations`) and steps an epoch (a tile's
+// samples, 2^32 at most, in minibatches of at least 128).
+constexpr std::int32_t kMostEpochs = 100000;
+constexpr std::uint64_t kMostSteps = (std::uint64_t(1) << 32) / 128;
 
 void put_floats(detail::ByteWriter& w, const std::vector<float>& v) {
   w.put<std::uint64_t>(v.size());
@@ -102,7 +107,9 @@ NeuralFitState get_state(detail::ByteReader& r) {
   NeuralFitState s;
   s.epoch = r.get<std::int32_t>("epoch");
   s.steps_done = r.get<std::uint64_t>("steps done");
-  s.validation_due = r.get<std::uint8_t>("validation due") != 0;
+  const auto due = r.get<std::uint8_t>("validation due");
+  if (due > 1) r.fail("the held-out check's flag is neither 0 nor 1");
+  s.validation_due = due == 1;
   s.theta = get_floats(r, "parameters");
   s.first_moment = get_floats(r, "first moments");
   s.second_moment = get_floats(r, "second moments");
@@ -119,10 +126,25 @@ NeuralFitState get_state(detail::ByteReader& r) {
     r.fail("the parameters, moments and best parameters differ in count");
   // The best error is infinite before the first validation; the rule's reference until a gain.
   if (std::isnan(s.best_rmse) || std::isnan(s.rule_best) || std::isnan(s.rule_reference) ||
-      !(s.rate_scale > 0.0 && s.rate_scale <= 1.0) || s.since_gain < 0 || s.plateaus < 0 ||
-      s.epoch < 0 || s.adam_steps < 0)
+      !(s.rate_scale > 0.0 && s.rate_scale <= 1.0) || s.since_gain < 0 || s.plateaus < 0)
     r.fail("the stopping rule's state is out of range");
+  if (s.epoch < 0 || s.epoch > kMostEpochs || s.steps_done > kMostSteps || s.adam_steps < 0 ||
+      (s.validation_due && s.steps_done == 0))
+    r.fail("the fit's place (epoch, step, Adam's steps) is out of range");
   return s;
+}
+
+// The network's parameters and the latents of the options' shape (their defaults where unset)
+// on `tile`; 0 for a shape past the limits a fit takes.
+std::size_t parameters_on(const Tile& tile, const FitOptions& o) {
+  const NeuralShape shape{.latent = o.components ? o.components : kNeuralDefaultLatent,
+                          .width = o.width ? o.width : kNeuralDefaultWidth,
+                          .depth = o.depth ? o.depth : kNeuralDefaultDepth};
+  if (shape.latent > detail::kMaxLatent || shape.width > detail::kMaxWidth ||
+      shape.depth > detail::kMaxDepth)
+    return 0;
+  return detail::parameter_count(detail::network_shape(shape)) +
+         std::size_t(tile.width) * std::size_t(tile.height) * shape.latent;
 }
 
 Tile get_tile(detail::ByteReader& r) {
@@ -131,7 +153,8 @@ Tile get_tile(detail::ByteReader& r) {
   t.y = r.get<std::int32_t>("tile y");
   t.width = r.get<std::int32_t>("tile width");
   t.height = r.get<std::int32_t>("tile height");
-  if (t.x < 0 || t.y < 0 || t.width <= 0 || t.height <= 0) r.fail("the tile is out of range");
+  if (t.x < 0 || t.y < 0 || t.width <= 0 || t.height <= 0 || t.width > 65536 || t.height > 65536)
+    r.fail("the tile is out of range");
   return t;
 }
 
@@ -207,6 +230,11 @@ NeuralCheckpoint read_neural_checkpoint(std::span<const std::uint8_t> bytes,
   if (!(c.seconds >= 0.0 && c.seconds < 1e12) || c.runs == 0)
     r.fail("the time or runs so far are out of range");
   c.state = get_state(r);
+  if (const std::size_t n = parameters_on(c.tile, c.options); c.state.theta.size() != n)
+    r.fail(
+        fmt::format("the state holds {} parameters where the network and latents of its "
+                    "options on its tile hold {}",
+                    c.state.theta.size(), n));
   if (r.remaining() != 0) r.fail(fmt::format("{} bytes left over", r.remaining()));
   return c;
 }

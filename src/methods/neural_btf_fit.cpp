@@ -291,12 +291,16 @@ Training resumed(const Samples& s, const NeuralFitState& k, int epochs, std::siz
                 fmt::format("the checkpoint's state holds {} parameters where the network and "
                             "latents of this tile hold {}; start the fit again without {}",
                             k.theta.size(), n, option_name("resume")));
-  if (k.epoch < 0 || k.epoch > epochs || k.steps_done > steps || k.adam_steps < 0 ||
+  if (k.epoch < 0 || k.epoch > epochs || k.steps_done > steps ||
+      std::int64_t(k.adam_steps) !=
+          std::int64_t(k.epoch) * std::int64_t(steps) + std::int64_t(k.steps_done) ||
       (k.validation_due && k.steps_done == 0))
     throw Error(Error::Kind::kFormat,
-                fmt::format("the checkpoint stands at step {} of epoch {}, outside the fit's {} "
-                            "epochs of {} steps; start the fit again without {}",
-                            k.steps_done, k.epoch + 1, epochs, steps, option_name("resume")));
+                fmt::format("the checkpoint stands at step {} of epoch {} after {} Adam steps, "
+                            "outside the fit's {} epochs of {} steps; start the fit again "
+                            "without {}",
+                            k.steps_done, std::int64_t(k.epoch) + 1, k.adam_steps, epochs, steps,
+                            option_name("resume")));
   Adam<float> adam(k.theta);
   adam.m1 = k.first_moment;
   adam.m2 = k.second_moment;
