@@ -98,27 +98,25 @@ void predict_block(const NeuralBtf& m, std::span<const Query> queries, std::size
   for (std::size_t i = 0; i < count * 3; ++i) out[i] *= m.scale();
 }
 
-// One decoded image, pair (light, view) at width x height pixels: the texels' own latents
-// (the tile repeated), forward in blocks.
+// One decoded image, pair (light, view) at width x height pixels: each texel of the tile once
+// (its own latent, forward in blocks: a texel's answer is the same bits among any others),
+// then the tile repeated.
 void decode_image(const NeuralBtf& m, const Direction& light, const Direction& view, int width,
                   int height, float* rgb) {
   const detail::NetworkShape shape = detail::network_shape(m.shape());
   const std::size_t n = detail::input_size(shape), L = shape.latent;
-  const std::size_t pixels = std::size_t(width) * std::size_t(height);
+  const ModelFrame& f = m.frame();
+  const std::size_t texels = std::size_t(f.width) * std::size_t(f.height);
   float directions[detail::kDirectionInputs];
   detail::encode_directions(to_vector(light), to_vector(view), directions);
-  std::vector<float> inputs(pixels * n);
-  const ModelFrame& f = m.frame();
-  for (int y = 0; y < height; ++y)
-    for (int x = 0; x < width; ++x) {
-      const std::size_t p =
-          std::size_t(y % f.height) * std::size_t(f.width) + std::size_t(x % f.width);
-      float* row = &inputs[(std::size_t(y) * std::size_t(width) + std::size_t(x)) * n];
-      std::copy_n(&m.latents()[p * L], L, row);
-      std::copy_n(directions, detail::kDirectionInputs, row + L);
-    }
-  forward_in_blocks(shape, m.network_parameters(), inputs, rgb);
-  for (std::size_t i = 0; i < pixels * detail::kNetworkOutputs; ++i) rgb[i] *= m.scale();
+  std::vector<float> inputs(texels * n), tile(texels * detail::kNetworkOutputs);
+  for (std::size_t p = 0; p < texels; ++p) {
+    std::copy_n(&m.latents()[p * L], L, &inputs[p * n]);
+    std::copy_n(directions, detail::kDirectionInputs, &inputs[p * n + L]);
+  }
+  forward_in_blocks(shape, m.network_parameters(), inputs, tile.data());
+  for (float& v : tile) v *= m.scale();
+  detail::repeat_tile(tile.data(), f.width, f.height, width, height, rgb);
 }
 
 // Error(kFormat) through `r` for a scale that is not a positive finite number.
