@@ -15,8 +15,8 @@ inline void add_device_option(CLI::App* app, std::string& device) {
   app->add_option("--device", device,
                   "Where the predictions are computed: auto (a GPU where one exists, else the "
                   "CPU), cpu, or gpu (a GPU, else a software Vulkan such as lavapipe). The GPU "
-                  "computes the Gaussian mixture's (gm), every component weighed; the other "
-                  "methods compute on the CPU (docs/GPU.md)")
+                  "computes the Gaussian mixture's (gm), every component weighed, and the neural "
+                  "BTF's network; the other methods compute on the CPU (docs/GPU.md)")
       ->capture_default_str()
       ->check(CLI::IsMember({"auto", "cpu", "gpu"}));
 }

@@ -222,7 +222,8 @@ void bind_model(py::module_& m) {
   m.def("load", &load, py::arg("path"), py::kw_only(), py::arg("device") = "auto",
         "Reads a model file of any method (.btfgmm). device: where its predictions (eval, "
         "decode, compare) are computed: 'auto' (a GPU where one exists, else the CPU), 'cpu', "
-        "or 'gpu' (a GPU, else a software Vulkan; the Gaussian mixture's alone).");
+        "or 'gpu' (a GPU, else a software Vulkan; the Gaussian mixture's and the neural BTF's "
+        "alone).");
 }
 
 }  // namespace btfgmm::python

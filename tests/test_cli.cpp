@@ -309,7 +309,8 @@ TEST_F(Cli, EvalLabelsItsValuesAndSaysWhatXAndYAre) {
 }
 
 // decode, eval and compare with --device gpu (lavapipe in CI) beside --device cpu: the same
-// figures within a thousandth of a level; a method without kernels is refused there.
+// figures within a thousandth of a level (the mixture's and the neural BTF's); a method
+// without kernels is refused there.
 TEST_F(Cli, DecodeEvalAndCompareOnTheGpuGiveTheCpusFigures) {
   CliRun r = run(std::string("generate --size 8 ") + kSmall + " -o " + p("btf"));
   ASSERT_EQ(r.status, 0) << r.out;
@@ -351,6 +352,19 @@ TEST_F(Cli, DecodeEvalAndCompareOnTheGpuGiveTheCpusFigures) {
   EXPECT_NE(r.out.find("give --device cpu or auto"), std::string::npos) << r.out;
   r = run("eval " + p("pca.btfgmm") + " --x 0 --y 0 --light 0,0 --view 0,0 --device auto");
   EXPECT_EQ(r.status, 0) << r.out;
+  // The neural BTF's network runs there too.
+  r = run("fit " + p("btf") + " --method neural -M 2 --width 8 --iterations 1 -q -o " +
+          p("nn.btfgmm"));
+  ASSERT_EQ(r.status, 0) << r.out;
+  const std::string nn =
+      "eval " + p("nn.btfgmm") + " --x 2.5 --y 9 --light 20,10 --view 33,250 --json";
+  r = run(nn + " --device gpu");
+  ASSERT_EQ(r.status, 0) << r.out;
+  const auto nn_gpu = nlohmann::json::parse(r.out);
+  r = run(nn + " --device cpu");
+  const auto nn_cpu = nlohmann::json::parse(r.out);
+  for (int c = 0; c < 3; ++c)
+    EXPECT_NEAR(nn_gpu["rgb"][c].get<double>(), nn_cpu["rgb"][c].get<double>(), 1e-3) << r.out;
   r = run("decode " + p("m.btfgmm") + " --device tpu -o " + p("x"));
   EXPECT_EQ(r.status, 2) << r.out;
 }

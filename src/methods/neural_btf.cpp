@@ -29,28 +29,6 @@ detail::FactorLayout latent_layout(const ModelFrame& f) {
   return {.across = std::size_t(f.width), .channels = 1};
 }
 
-// A texel's latent at a real tile position: bilinear between the four texels around it (texel
-// centres at whole coordinates; the tile wraps); at a whole position the texel's own latent,
-// exactly (weights of 0 are skipped).
-void bilinear_latent(const NeuralBtf& m, double qx, double qy, float* out) {
-  const ModelFrame& f = m.frame();
-  const std::size_t L = m.shape().latent;
-  const double x = detail::tile_coordinate(qx, f.width), y = detail::tile_coordinate(qy, f.height);
-  const int x0 = int(std::floor(x)) % f.width, y0 = int(std::floor(y)) % f.height;
-  const double fx = x - std::floor(x), fy = y - std::floor(y);
-  const int xs[2] = {x0, (x0 + 1) % f.width}, ys[2] = {y0, (y0 + 1) % f.height};
-  const double wx[2] = {1.0 - fx, fx}, wy[2] = {1.0 - fy, fy};
-  std::fill(out, out + L, 0.0f);
-  for (int dy = 0; dy < 2; ++dy)
-    for (int dx = 0; dx < 2; ++dx) {
-      const double w = wy[dy] * wx[dx];
-      if (w == 0.0) continue;
-      const std::size_t p = std::size_t(ys[dy]) * std::size_t(f.width) + std::size_t(xs[dx]);
-      for (std::size_t j = 0; j < L; ++j)
-        out[j] = float(double(out[j]) + w * double(m.latents()[p * L + j]));
-    }
-}
-
 void check_queries(std::span<const Query> queries, std::span<float> rgb) {
   if (rgb.size() < queries.size() * 3)
     throw Error(Error::Kind::kArgument, "predict: the output holds fewer than 3 floats a query");
@@ -89,7 +67,7 @@ void predict_block(const NeuralBtf& m, std::span<const Query> queries, std::size
   std::vector<float> inputs(count * n);
   for (std::size_t k = 0; k < count; ++k) {
     const Query& q = queries[first + k];
-    bilinear_latent(m, q.x, q.y, &inputs[k * n]);
+    detail::bilinear_latent(m, q.x, q.y, &inputs[k * n]);
     detail::encode_directions(to_vector(q.light), to_vector(q.view),
                               std::span(inputs).subspan(k * n + L, detail::kDirectionInputs));
   }
@@ -130,6 +108,28 @@ float get_scale(detail::ByteReader& r) {
 }  // namespace
 
 namespace detail {
+
+// A texel's latent at a real tile position: bilinear between the four texels around it (texel
+// centres at whole coordinates; the tile wraps); at a whole position the texel's own latent,
+// exactly (weights of 0 are skipped).
+void bilinear_latent(const NeuralBtf& m, double qx, double qy, float* out) {
+  const ModelFrame& f = m.frame();
+  const std::size_t L = m.shape().latent;
+  const double x = detail::tile_coordinate(qx, f.width), y = detail::tile_coordinate(qy, f.height);
+  const int x0 = int(std::floor(x)) % f.width, y0 = int(std::floor(y)) % f.height;
+  const double fx = x - std::floor(x), fy = y - std::floor(y);
+  const int xs[2] = {x0, (x0 + 1) % f.width}, ys[2] = {y0, (y0 + 1) % f.height};
+  const double wx[2] = {1.0 - fx, fx}, wy[2] = {1.0 - fy, fy};
+  std::fill(out, out + L, 0.0f);
+  for (int dy = 0; dy < 2; ++dy)
+    for (int dx = 0; dx < 2; ++dx) {
+      const double w = wy[dy] * wx[dx];
+      if (w == 0.0) continue;
+      const std::size_t p = std::size_t(ys[dy]) * std::size_t(f.width) + std::size_t(xs[dx]);
+      for (std::size_t j = 0; j < L; ++j)
+        out[j] = float(double(out[j]) + w * double(m.latents()[p * L + j]));
+    }
+}
 
 NetworkShape network_shape(const NeuralShape& s) {
   return {.latent = s.latent, .width = s.width, .depth = s.depth};
@@ -173,6 +173,7 @@ std::uint64_t NeuralBtf::parameter_count() const {
 
 void NeuralBtf::predict(std::span<const Query> queries, std::span<float> rgb) const {
   check_queries(queries, rgb);
+  if (device_) return detail::predict_on(*device_, *this, queries, rgb);
   const std::size_t blocks = (queries.size() + kQueryBlock - 1) / kQueryBlock;
 #pragma omp parallel
   {
@@ -189,6 +190,7 @@ void NeuralBtf::predict(std::span<const Query> queries, std::span<float> rgb) co
 Btf NeuralBtf::decode(const DirectionSet& lights, const DirectionSet& views, int width, int height,
                       double /*tolerance: every value is exact*/) const {
   detail::check_decode_request(lights, views, width, height);
+  if (device_) return detail::decode_on(*device_, *this, lights, views, width, height);
   Btf out(lights, views, width, height, frame_.format);
   out.set_origin(frame_.origin);
   const std::size_t pairs = lights.size() * views.size();
@@ -202,6 +204,11 @@ Btf NeuralBtf::decode(const DirectionSet& lights, const DirectionSet& views, int
     }
   }
   return out;
+}
+
+bool NeuralBtf::compute_on(std::shared_ptr<ComputeDevice> device) {
+  device_ = std::move(device);
+  return true;
 }
 
 std::vector<std::uint8_t> NeuralBtf::payload() const {

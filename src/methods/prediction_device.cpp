@@ -22,7 +22,7 @@ std::string compute_predictions_on(Representation& model, DeviceChoice choice,
   if (choice == DeviceChoice::kGpu)
     throw Error(Error::Kind::kArgument,
                 fmt::format("{} gpu: {} is a '{}' model, whose predictions are computed on the "
-                            "CPU only (the GPU computes the Gaussian mixture's, gm); give {} cpu "
+                            "CPU only (the GPU computes those of gm and neural); give {} cpu "
                             "or auto",
                             option_name("device"), name, model.method(), option_name("device")));
   return "the CPU";

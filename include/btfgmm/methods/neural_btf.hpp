@@ -51,6 +51,9 @@ class NeuralBtf final : public Representation {
   std::vector<std::uint8_t> payload() const override;
   FactorEncoding encoding() const override { return encoding_; }
   std::vector<std::pair<std::string, std::string>> details() const override;
+  // predict() and decode() by the network on `device` (null: the CPU), within float rounding
+  // of the CPU's (docs/GPU.md, "Decoding on the GPU").
+  bool compute_on(std::shared_ptr<ComputeDevice> device) override;
 
  private:
   ModelFrame frame_;
@@ -58,6 +61,7 @@ class NeuralBtf final : public Representation {
   FactorEncoding encoding_;
   float scale_;
   std::vector<float> latents_, parameters_;
+  std::shared_ptr<ComputeDevice> device_;  // null: the CPU
 };
 
 // The default shape of a fit (`components` L, `width`, `depth`) and its most epochs
