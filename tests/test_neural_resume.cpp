@@ -3,8 +3,10 @@
 // uninterrupted fit writes, bit for bit; the file is refused truncated, damaged or for another
 // tile; the command saves, stops, resumes and removes the checkpoint.
 #include <gtest/gtest.h>
+#include <zlib.h>
 
 #include <atomic>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <string>
@@ -171,6 +173,20 @@ TEST(NeuralResume, ATruncatedOrDamagedCheckpointIsRefusedByName) {
       fs::path(BTFGMM_TEST_DATA) / "../fuzz/corpus/fuzz_neural_checkpoint/seed_small.ckpt");
   EXPECT_EQ(seed.state.theta.size(), 71u);  // 2 x 2 texels x L = 2, and 11-4-3 weights
   EXPECT_EQ(seed.options.width, 4u);
+  // What the fuzz target found (with the CRC-32 made right, as the target reads it): the
+  // held-out check's flag 17, read as "due" and written back as 1.
+  std::string found = slurp(fs::path(BTFGMM_TEST_DATA) /
+                            "../fuzz/corpus/fuzz_neural_checkpoint/flag_neither_0_nor_1.ckpt");
+  ASSERT_GT(found.size(), 16u);
+  const auto crc = std::uint32_t(
+      crc32(0L, reinterpret_cast<const Bytef*>(found.data()), uInt(found.size() - 4)));
+  std::memcpy(found.data() + found.size() - 4, &crc, 4);
+  EXPECT_NE(test::error_of([&] {
+              read_neural_checkpoint(
+                  std::span(reinterpret_cast<const std::uint8_t*>(found.data()), found.size()),
+                  "found.ckpt");
+            }).find("neither 0 nor 1"),
+            std::string::npos);
   // The mixture's checkpoint is not a neural one, nor the reverse.
   FitCheckpoint mixture;
   save_checkpoint(mixture, path);
