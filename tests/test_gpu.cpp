@@ -28,29 +28,6 @@
 namespace btfgmm {
 namespace {
 
-bool in_ci() {
-  const char* ci = std::getenv("CI");
-  return ci && std::string(ci) == "true";
-}
-
-// The device `device gpu` opens (a hardware GPU, else lavapipe); null after a skip, or a
-// failure in CI.
-std::shared_ptr<ComputeDevice> test_device() {
-  try {
-    return open_compute_device(DeviceChoice::kGpu);
-  } catch (const Error& e) {
-    if (in_ci()) ADD_FAILURE() << "CI runs the GPU kernels on lavapipe: " << e.what();
-    return nullptr;
-  }
-}
-
-#define REQUIRE_DEVICE(name)                                                \
-  const std::shared_ptr<ComputeDevice> name = test_device();                \
-  if (!name) {                                                              \
-    if (!in_ci()) GTEST_SKIP() << "no Vulkan device (mesa-vulkan-drivers)"; \
-    return;                                                                 \
-  }
-
 TEST(Gpu, ChoicesParseAndTheCpuOpensNoDevice) {
   EXPECT_EQ(parse_device_choice("auto"), DeviceChoice::kAuto);
   EXPECT_EQ(parse_device_choice("cpu"), DeviceChoice::kCpu);

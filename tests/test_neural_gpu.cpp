@@ -22,27 +22,6 @@
 namespace btfgmm {
 namespace {
 
-bool in_ci() {
-  const char* ci = std::getenv("CI");
-  return ci && std::string(ci) == "true";
-}
-
-std::shared_ptr<ComputeDevice> test_device() {
-  try {
-    return open_compute_device(DeviceChoice::kGpu);
-  } catch (const Error& e) {
-    if (in_ci()) ADD_FAILURE() << "CI runs the GPU kernels on lavapipe: " << e.what();
-    return nullptr;
-  }
-}
-
-#define REQUIRE_DEVICE(name)                                                \
-  const std::shared_ptr<ComputeDevice> name = test_device();                \
-  if (!name) {                                                              \
-    if (!in_ci()) GTEST_SKIP() << "no Vulkan device (mesa-vulkan-drivers)"; \
-    return;                                                                 \
-  }
-
 // A neural BTF fitted to a generated 8 x 8 knit (L = 4, 2 x 16, two epochs).
 std::unique_ptr<Representation> small_neural(const Btf& tile) {
   FitOptions s;

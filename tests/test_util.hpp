@@ -12,13 +12,40 @@
 #include <filesystem>
 #include <fstream>
 #include <iterator>
+#include <memory>
 #include <string>
 
 #include "btfgmm/core/error.hpp"
 #include "btfgmm/core/text.hpp"
+#include "btfgmm/gpu/compute_device.hpp"
 #include "btfgmm/synth/generate.hpp"
 
 namespace btfgmm::test {
+
+// In CI (CI=true), where a GPU test that would skip for want of a device fails instead.
+inline bool in_ci() {
+  const char* ci = std::getenv("CI");
+  return ci && std::string(ci) == "true";
+}
+
+// The device `device gpu` opens (a hardware GPU, else lavapipe); null after a skip, or a
+// failure in CI.
+inline std::shared_ptr<ComputeDevice> test_device() {
+  try {
+    return open_compute_device(DeviceChoice::kGpu);
+  } catch (const Error& e) {
+    if (in_ci()) ADD_FAILURE() << "CI runs the GPU kernels on lavapipe: " << e.what();
+    return nullptr;
+  }
+}
+
+// Opens the test device as `name`, or skips the test (fails it in CI) where there is none.
+#define REQUIRE_DEVICE(name)                                                                \
+  const std::shared_ptr<ComputeDevice> name = ::btfgmm::test::test_device();                \
+  if (!name) {                                                                              \
+    if (!::btfgmm::test::in_ci()) GTEST_SKIP() << "no Vulkan device (mesa-vulkan-drivers)"; \
+    return;                                                                                 \
+  }
 
 // A generated tile (btfgmm generate) of `size` x `size` pixels at the direction sets given.
 inline Btf generated_tile(const std::string& material, int size, std::uint64_t seed,
