@@ -71,7 +71,8 @@ def test_eval_equals_the_command(work, which):
 
 
 def test_a_model_loaded_onto_the_gpu_gives_the_cpus_values(work):
-    """device="gpu" (lavapipe in CI) computes the mixture's predictions on the device."""
+    """device="gpu" (lavapipe in CI) computes the mixture's and the neural BTF's predictions
+    on the device."""
     try:
         gpu = btfgmm.load(work["gm"], device="gpu")
     except btfgmm.ArgumentError as e:
@@ -84,6 +85,11 @@ def test_a_model_loaded_onto_the_gpu_gives_the_cpus_values(work):
     a = gpu.decode((30, 45), (20, 100), size=(10, 7))
     b = cpu.decode((30, 45), (20, 100), size=(10, 7), tolerance=0)
     np.testing.assert_allclose(a, b, rtol=0, atol=1e-3)
+    nn_gpu = btfgmm.load(work["neural"], device="gpu")
+    nn_cpu = btfgmm.load(work["neural"], device="cpu")
+    np.testing.assert_allclose(nn_gpu.eval(q), nn_cpu.eval(q), rtol=0, atol=1e-3)
+    np.testing.assert_allclose(nn_gpu.decode((30, 45), (20, 100), size=(10, 7)),
+                               nn_cpu.decode((30, 45), (20, 100), size=(10, 7)), rtol=0, atol=1e-3)
     with pytest.raises(btfgmm.ArgumentError, match="cpu or auto"):
         btfgmm.load(work["pca"], device="gpu")
     with pytest.raises(btfgmm.ArgumentError, match="'auto', 'cpu' or 'gpu'"):
