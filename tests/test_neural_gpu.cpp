@@ -34,12 +34,7 @@ std::unique_ptr<Representation> small_neural(const Btf& tile) {
 }
 
 Btf small_tile() {
-  GenerateConfig g;
-  g.material = "knit";
-  g.size = 8;
-  g.lights = DirectionSet::parse("rings:0/1,30/4,60/6");
-  g.views = DirectionSet::parse("rings:0/1,45/5");
-  return generate(g);
+  return test::generated_tile("knit", 8, 1, "rings:0/1,30/4,60/6", "rings:0/1,45/5");
 }
 
 double largest_difference(std::span<const float> a, std::span<const float> b) {

@@ -25,12 +25,7 @@ namespace {
 namespace fs = std::filesystem;
 
 Btf small_tile() {
-  GenerateConfig g;
-  g.material = "knit";
-  g.size = 8;
-  g.lights = DirectionSet::parse("rings:0/1,30/4,60/6");
-  g.views = DirectionSet::parse("rings:0/1,45/5");
-  return generate(g);
+  return test::generated_tile("knit", 8, 1, "rings:0/1,30/4,60/6", "rings:0/1,45/5");
 }
 
 FitOptions options(int epochs) {

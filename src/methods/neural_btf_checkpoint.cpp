@@ -4,7 +4,6 @@
 #include "btfgmm/methods/neural_btf_checkpoint.hpp"
 
 #include <fmt/format.h>
-#include <zlib.h>
 
 #include <cmath>
 #include <cstring>
@@ -195,8 +194,7 @@ void save_neural_checkpoint(const NeuralCheckpoint& c, const std::filesystem::pa
   w.put<double>(c.seconds);
   w.put<std::uint32_t>(c.runs);
   put_state(w, c.state);
-  const auto crc = std::uint32_t(crc32(0L, w.bytes.data(), uInt(w.bytes.size())));
-  w.put<std::uint32_t>(crc);
+  detail::append_crc32(w);
   write_file_atomically(path, w.bytes, kWhat);
 }
 
@@ -207,9 +205,7 @@ NeuralCheckpoint read_neural_checkpoint(std::span<const std::uint8_t> bytes,
                 fmt::format("'{}' is not a neural fit's checkpoint (what a fit of {} neural "
                             "writes with the option {}); {}",
                             name, option_name("method"), option_name("checkpoint"), kFix));
-  std::uint32_t stored;
-  std::memcpy(&stored, bytes.data() + bytes.size() - 4, 4);
-  if (std::uint32_t(crc32(0L, bytes.data(), uInt(bytes.size() - 4))) != stored)
+  if (!detail::crc32_holds(bytes))
     throw Error(Error::Kind::kFormat,
                 fmt::format("{} '{}' is truncated or corrupted (checksum mismatch); {}", kWhat,
                             name, kFix));

@@ -352,10 +352,10 @@ Best train(const Samples& s, const FitOptions& o, int epochs, const NeuralCheckp
     }
     if (c.save && c.every_epochs > 0 && (t.epoch + 1) % c.every_epochs == 0 &&
         t.epoch + 1 < epochs) {
-      Training next = t;  // the state before the next epoch's first step
+      NeuralFitState next = state_of(t);  // the state before the next epoch's first step
       ++next.epoch;
       next.steps_done = 0;
-      c.save(state_of(next));
+      c.save(next);
     }
   }
   return t.best;

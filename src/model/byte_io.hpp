@@ -5,6 +5,7 @@
 #include <fmt/format.h>
 
 #include <Imath/half.h>
+#include <zlib.h>
 #include <cstdint>
 #include <cstring>
 #include <span>
@@ -90,6 +91,17 @@ class ByteReader {
   std::string what_, name_, fix_;
   std::size_t pos_ = 0;
 };
+
+// The trailer of the project's checkpoints: a CRC-32 (zlib's) of every byte before it.
+inline void append_crc32(ByteWriter& w) {
+  w.put<std::uint32_t>(std::uint32_t(crc32(0L, w.bytes.data(), uInt(w.bytes.size()))));
+}
+// Whether the last 4 bytes of `bytes` (at least 4) are the CRC-32 of those before them.
+inline bool crc32_holds(std::span<const std::uint8_t> bytes) {
+  std::uint32_t stored;
+  std::memcpy(&stored, bytes.data() + bytes.size() - 4, 4);
+  return std::uint32_t(crc32(0L, bytes.data(), uInt(bytes.size() - 4))) == stored;
+}
 
 // The model file's direction sets and tile (docs/FORMAT.md; model_file.cpp): shared by the
 // mixture's payload and every other method's frame.

@@ -3,7 +3,6 @@
 #include "btfgmm/model/checkpoint.hpp"
 
 #include <fmt/format.h>
-#include <zlib.h>
 
 #include <cmath>
 #include <cstring>
@@ -84,8 +83,7 @@ void save_checkpoint(const FitCheckpoint& c, const std::filesystem::path& path) 
     for (double v : m.mean[k]) w.put<double>(v);
     for (double v : m.var[k]) w.put<double>(v);
   }
-  const auto crc = std::uint32_t(crc32(0L, w.bytes.data(), uInt(w.bytes.size())));
-  w.put<std::uint32_t>(crc);
+  detail::append_crc32(w);
   write_file_atomically(path, w.bytes, kWhat);
 }
 
@@ -97,9 +95,7 @@ FitCheckpoint load_checkpoint(const std::filesystem::path& path) {
                 fmt::format("'{}' is not a btfgmm checkpoint (what a fit writes with the "
                             "option {}); {}",
                             name, option_name("checkpoint"), kFix));
-  std::uint32_t stored;
-  std::memcpy(&stored, bytes.data() + bytes.size() - 4, 4);
-  if (std::uint32_t(crc32(0L, bytes.data(), uInt(bytes.size() - 4))) != stored)
+  if (!detail::crc32_holds(bytes))
     throw Error(Error::Kind::kFormat,
                 fmt::format("checkpoint '{}' is truncated or corrupted (checksum mismatch); {}",
                             name, kFix));
