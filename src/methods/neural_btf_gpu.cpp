@@ -12,6 +12,7 @@
 
 #include "btfgmm/core/error.hpp"
 #include "btfgmm/core/limits.hpp"
+#include "btfgmm/model/predict_gpu.hpp"
 #include "gpu/device_check.hpp"
 #include "methods/neural_btf_internal.hpp"
 #include "model/conditional.hpp"
@@ -21,8 +22,6 @@ namespace btfgmm::detail {
 namespace {
 
 constexpr std::uint32_t kForwardGroup = 64;  // neural_forward.comp's local size
-// The queries one run of the device computes at most: 4 Mi, their colours 48 MiB.
-constexpr std::size_t kQueriesPerRun = std::size_t(1) << 22;
 
 struct ForwardPush {
   std::uint32_t latents, width, depth, pixels, grid, first, count;
@@ -66,12 +65,6 @@ ForwardInputs grid_rows(const NeuralBtf& m, const DirectionSet& lights, const Di
   return in;
 }
 
-std::shared_ptr<GpuBuffer> uploaded(ComputeDevice& device, std::span<const float> values) {
-  auto b = device.buffer(std::max<std::size_t>(values.size(), 4) * sizeof(float));
-  device.upload_values<float>(*b, values);
-  return b;
-}
-
 // The iterations of the shader's loop nest for one query: the inputs gathered, then each
 // layer's outputs times its inputs.
 std::size_t forward_iterations(const NetworkShape& shape) {
@@ -80,7 +73,7 @@ std::size_t forward_iterations(const NetworkShape& shape) {
   return n + kNetworkOutputs;
 }
 
-// The RGB of every query (3 floats a query), in runs of at most kQueriesPerRun. Refused before
+// The RGB of every query (3 floats a query), in runs of at most kGpuDecodeQueries. Refused before
 // any transfer where the device cannot hold or run the work.
 std::vector<float> network_colours(ComputeDevice& device, const NeuralBtf& m,
                                    const ForwardInputs& in) {
@@ -90,7 +83,7 @@ std::vector<float> network_colours(ComputeDevice& device, const NeuralBtf& m,
                 fmt::format("{} queries at once are more than the GPU's prediction numbers "
                             "(2^32 - 1); decode fewer images at once",
                             in.queries));
-  const std::size_t run = std::max<std::size_t>(1, std::min(in.queries, kQueriesPerRun));
+  const std::size_t run = std::max<std::size_t>(1, std::min(in.queries, kGpuDecodeQueries));
   const double bytes =
       4.0 * double(m.network_parameters().size() + in.latents.size() + in.directions.size()) +
       12.0 * double(run);

@@ -38,6 +38,13 @@ std::span<const std::byte> bytes_of(const T& value) {
   return std::as_bytes(std::span(&value, 1));
 }
 
+// A buffer on `device` holding `values` (room for at least 4, so that an empty one binds).
+inline std::shared_ptr<GpuBuffer> uploaded(ComputeDevice& device, std::span<const float> values) {
+  auto b = device.buffer(std::max<std::size_t>(values.size(), 4) * sizeof(float));
+  device.upload_values<float>(*b, values);
+  return b;
+}
+
 // Enough workgroups of `size` for `n` invocations, as (x, y) within Vulkan's least limits.
 inline std::pair<std::uint32_t, std::uint32_t> groups_for(std::size_t n, std::uint32_t size) {
   const auto groups = std::uint32_t((n + size - 1) / size);

@@ -69,12 +69,6 @@ QueryInputs grid_rows(const BtfModel& model, const DirectionSet& lights,
   return in;
 }
 
-std::shared_ptr<GpuBuffer> uploaded(ComputeDevice& device, const std::vector<float>& values) {
-  auto b = device.buffer(std::max<std::size_t>(values.size(), 4) * sizeof(float));
-  device.upload_values<float>(*b, values);
-  return b;
-}
-
 // Eq. (8)'s colour in model units of every query (3 floats a query), in runs of at most
 // `per_run` queries. Refused before any transfer where the device cannot hold the work.
 std::vector<float> conditional_colours(ComputeDevice& device, const BtfModel& model,
@@ -92,9 +86,10 @@ std::vector<float> conditional_colours(ComputeDevice& device, const BtfModel& mo
   detail::check_device_holds(device.info(), bytes, std::max(12.0 * double(run), 80.0 * double(m)),
                              fmt::format("the predictions of {} queries", in.queries));
   detail::check_loop_nest(device.info(), m, "the prediction's sum over the components");
-  const auto components = uploaded(device, detail::component_vectors(model.mixture));
-  const auto pixel_xy = uploaded(device, in.pixel_xy), light_ab = uploaded(device, in.light_ab),
-             view_ab = uploaded(device, in.view_ab);
+  const auto components = detail::uploaded(device, detail::component_vectors(model.mixture));
+  const auto pixel_xy = detail::uploaded(device, in.pixel_xy),
+             light_ab = detail::uploaded(device, in.light_ab),
+             view_ab = detail::uploaded(device, in.view_ab);
   const auto colours = device.buffer(run * 3 * sizeof(float));
   const auto kernel = device.kernel("predict_colours.spv", 5, sizeof(PredictPush));
   const detail::Periods periods = detail::model_periods(model);
