@@ -78,6 +78,13 @@ btfgmm::FitProgress method_progress(const FitArguments& o, std::string_view meth
   return progress;
 }
 
+// " on the GPU NAME" where the model's fit ran on a compute device, as its provenance says.
+std::string fit_device_words(const btfgmm::Representation& r) {
+  for (const auto& [name, value] : r.provenance().fit.settings)
+    if (name == btfgmm::kDeviceSetting && value != "cpu") return " on the GPU " + value;
+  return "";
+}
+
 // Writes the model of a method's fit to `out` and says what it is; a fit stopped by the user
 // that kept its best model met exits 130 (`state`: where it saved the state to go on from). A
 // whole fit removes the state (a stale one of an earlier stop) and the checkpoint it was named.
@@ -112,9 +119,9 @@ void write_method_model(const FitArguments& o, const std::string& out,
   if (o.quiet) return;
   fmt::print(stderr,
              "wrote {}: {} {}, {} values, {} bytes, compression 1:{:.1f} (paper's count) / "
-             "1:{:.1f} (file), fit in {}\n",
+             "1:{:.1f} (file), fit in {}{}\n",
              out, r.method(), r.size_text(), r.parameter_count(), bytes, r.paper_ratio(),
-             r.file_ratio(bytes), human_seconds(fit_seconds));
+             r.file_ratio(bytes), human_seconds(fit_seconds), fit_device_words(r));
 }
 
 // The neural BTF's fit with checkpoints: new, or resumed from `resume`; its state saved to

@@ -365,6 +365,13 @@ TEST_F(Cli, DecodeEvalAndCompareOnTheGpuGiveTheCpusFigures) {
   const auto nn_cpu = nlohmann::json::parse(r.out);
   for (int c = 0; c < 3; ++c)
     EXPECT_NEAR(nn_gpu["rgb"][c].get<double>(), nn_cpu["rgb"][c].get<double>(), 1e-3) << r.out;
+  // And its fit: the file's provenance and the fit's line name the device.
+  r = run("fit " + p("btf") + " --method neural -M 2 --width 8 --iterations 1 --device gpu -o " +
+          p("nng.btfgmm"));
+  ASSERT_EQ(r.status, 0) << r.out;
+  EXPECT_NE(r.out.find(" on the GPU "), std::string::npos) << r.out;
+  r = run("info " + p("nng.btfgmm"));
+  EXPECT_NE(r.out.find(", device "), std::string::npos) << r.out;
   r = run("decode " + p("m.btfgmm") + " --device tpu -o " + p("x"));
   EXPECT_EQ(r.status, 2) << r.out;
 }

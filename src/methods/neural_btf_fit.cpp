@@ -15,6 +15,8 @@
 
 #include "btfgmm/core/error.hpp"
 #include "btfgmm/core/text.hpp"
+#include "btfgmm/gpu/compute_device.hpp"
+#include "btfgmm/methods/fit_options.hpp"
 #include "btfgmm/methods/neural_btf.hpp"
 #include "btfgmm/methods/neural_btf_checkpoint.hpp"
 #include "btfgmm/model/refine.hpp"
@@ -22,6 +24,7 @@
 #include "core/random.hpp"
 #include "methods/factors.hpp"
 #include "methods/neural_btf_internal.hpp"
+#include "methods/neural_network_gpu.hpp"
 #include "methods/pca_methods.hpp"
 
 namespace btfgmm {
@@ -132,9 +135,34 @@ std::span<const float> latents_of(const Samples& s, std::span<const float> theta
   return theta.subspan(detail::parameter_count(detail::network_shape(s.shape)));
 }
 
+// Where the network's passes run: on the CPU's threads, or on a compute device (docs/GPU.md,
+// "The neural fit"; null: the CPU).
+struct NetworkPasses {
+  int threads = 0;
+  std::unique_ptr<detail::NetworkGradientPass> device;
+};
+
+// The held-out samples' squared error on the device, block after block, added in order.
+double device_validation_error(const Samples& s, std::span<const float> theta,
+                               detail::NetworkGradientPass& device) {
+  device.set_parameters(network_of(s, theta));
+  std::vector<float> inputs, targets;
+  double error = 0.0;
+  for (std::size_t first = 0; first < s.validation.size(); first += kValidationBlock) {
+    gather(s, latents_of(s, theta),
+           std::span(s.validation)
+               .subspan(first, std::min(kValidationBlock, s.validation.size() - first)),
+           inputs, targets);
+    error += device.squared_error(inputs, targets);
+  }
+  return error;
+}
+
 // The squared error over the held-out samples, in blocks of kValidationBlock (each block on
 // one thread, their errors added in block order: the same sum on any number of threads).
-double validation_error(const Samples& s, std::span<const float> theta) {
+double validation_error(const Samples& s, std::span<const float> theta,
+                        const NetworkPasses& passes) {
+  if (passes.device) return device_validation_error(s, theta, *passes.device);
   const std::size_t blocks = (s.validation.size() + kValidationBlock - 1) / kValidationBlock;
   std::vector<double> errors(blocks, 0.0);
 #pragma omp parallel
@@ -157,9 +185,10 @@ double validation_error(const Samples& s, std::span<const float> theta) {
 }
 
 // The held-out RMSE in the data's levels.
-double validation_rmse(const Samples& s, std::span<const float> theta) {
+double validation_rmse(const Samples& s, std::span<const float> theta,
+                       const NetworkPasses& passes) {
   const double n = double(std::max<std::size_t>(s.validation.size(), 1)) * 3.0;
-  return std::sqrt(validation_error(s, theta) / n) * double(s.scale);
+  return std::sqrt(validation_error(s, theta, passes) / n) * double(s.scale);
 }
 
 // The start: the network's initial parameters (He et al. 2015), the latents uniform in
@@ -177,14 +206,26 @@ std::size_t batch_size(const Samples& s) {
   return std::clamp<std::size_t>(s.training.size() / 64, 128, 4096);
 }
 
+// The squared error's gradient over a batch (detail::squared_error_gradient's), where the
+// passes run.
+detail::SquaredErrorGradient batch_gradient(const Samples& s, std::span<const float> theta,
+                                            std::span<const float> inputs,
+                                            std::span<const float> targets,
+                                            const NetworkPasses& passes) {
+  if (!passes.device)
+    return detail::squared_error_gradient(detail::network_shape(s.shape), network_of(s, theta),
+                                          inputs, targets, passes.threads);
+  passes.device->set_parameters(network_of(s, theta));
+  return passes.device->gradient(inputs, targets);
+}
+
 // One Adam step on the minibatch `ids`: the squared error's gradient (the network's, and each
 // texel's latent's summed over its samples in batch order), divided by the batch's size.
-void adam_step(const Samples& s, std::span<const std::uint32_t> ids, double rate_scale, int threads,
-               Adam<float>& adam) {
+void adam_step(const Samples& s, std::span<const std::uint32_t> ids, double rate_scale,
+               const NetworkPasses& passes, Adam<float>& adam) {
   std::vector<float> inputs, targets;
   gather(s, latents_of(s, adam.theta), ids, inputs, targets);
-  const detail::SquaredErrorGradient g = detail::squared_error_gradient(
-      detail::network_shape(s.shape), network_of(s, adam.theta), inputs, targets, threads);
+  const detail::SquaredErrorGradient g = batch_gradient(s, adam.theta, inputs, targets, passes);
   const std::size_t P = g.parameters.size(), L = s.shape.latent;
   std::vector<float> grad(adam.theta.size(), 0.0f);
   std::copy(g.parameters.begin(), g.parameters.end(), grad.begin());
@@ -257,9 +298,9 @@ struct Training {
   bool validation_due = false;
 };
 
-Training started(const Samples& s, const FitOptions& o) {
+Training started(const Samples& s, const FitOptions& o, const NetworkPasses& passes) {
   Adam<float> adam(initial_theta(s, o.seed));
-  Best best{.theta = adam.theta, .rmse = validation_rmse(s, adam.theta)};
+  Best best{.theta = adam.theta, .rmse = validation_rmse(s, adam.theta, passes)};
   return {.adam = std::move(adam), .best = std::move(best), .rule = {}};
 }
 
@@ -320,11 +361,12 @@ Training resumed(const Samples& s, const NeuralFitState& k, int epochs, std::siz
 // The epochs of Adam steps, validated every quarter epoch; the best parameters met. The state
 // is saved after every `c.every_epochs` epochs and when stopped; a fit from `c.resume` goes on
 // as the fit that saved it would have.
-Best train(const Samples& s, const FitOptions& o, int epochs, const NeuralCheckpointing& c) {
+Best train(const Samples& s, const FitOptions& o, const NetworkPasses& passes, int epochs,
+           const NeuralCheckpointing& c) {
   std::vector<std::uint32_t> order = s.training;
   const std::size_t batch = batch_size(s), steps = (order.size() + batch - 1) / batch;
   const std::size_t every = std::max<std::size_t>(1, steps / 4);
-  Training t = c.resume ? resumed(s, *c.resume, epochs, steps) : started(s, o);
+  Training t = c.resume ? resumed(s, *c.resume, epochs, steps) : started(s, o, passes);
   for (int e = 0; e < t.epoch; ++e) shuffle_for_epoch(order, o.seed, e);  // each shuffles the last
   for (; t.epoch < epochs; ++t.epoch, t.steps_done = 0) {
     shuffle_for_epoch(order, o.seed, t.epoch);
@@ -332,7 +374,7 @@ Best train(const Samples& s, const FitOptions& o, int epochs, const NeuralCheckp
       if (!t.validation_due) {
         const std::size_t first = k * batch;
         adam_step(s, std::span(order).subspan(first, std::min(batch, order.size() - first)),
-                  t.rule.rate_scale, o.threads, t.adam);
+                  t.rule.rate_scale, passes, t.adam);
         t.steps_done = k + 1;
         if (stop_asked(o)) {  // the best met is kept: the file says the fit was stopped
           t.validation_due = true;
@@ -343,7 +385,7 @@ Best train(const Samples& s, const FitOptions& o, int epochs, const NeuralCheckp
       }
       t.validation_due = false;
       if ((k + 1) % every != 0 && k + 1 != steps) continue;
-      const double rmse = validation_rmse(s, t.adam.theta);
+      const double rmse = validation_rmse(s, t.adam.theta, passes);
       if (rmse < t.best.rmse) t.best = {.theta = t.adam.theta, .rmse = rmse};
       detail::report(o, (double(t.epoch) + double(k + 1) / double(steps)) / double(epochs),
                      fmt::format("epoch {} of {}: held-out RMSE {:.3f} (best {:.3f})", t.epoch + 1,
@@ -359,6 +401,15 @@ Best train(const Samples& s, const FitOptions& o, int epochs, const NeuralCheckp
     }
   }
   return t.best;
+}
+
+// The passes on `device` (null: the CPU's `threads`), for batches and validation blocks.
+NetworkPasses passes_on(ComputeDevice* device, const Samples& s, const FitOptions& o) {
+  NetworkPasses passes{.threads = o.threads, .device = nullptr};
+  if (device)
+    passes.device = std::make_unique<detail::NetworkGradientPass>(
+        *device, detail::network_shape(s.shape), std::max(batch_size(s), kValidationBlock));
+  return passes;
 }
 
 void check_tile(const Btf& tile) {
@@ -386,7 +437,9 @@ std::unique_ptr<Representation> fit_neural_btf(const Btf& tile, const FitOptions
   detail::report(o, 0.0, "samples and held-out set");
   const Samples s = samples_of(tile, shape);
   const int epochs = most_epochs(s, o);
-  Best best = train(s, o, epochs, checkpointing);
+  const std::shared_ptr<ComputeDevice> device = open_compute_device(fit_device(o));
+  const NetworkPasses passes = passes_on(device.get(), s, o);
+  Best best = train(s, o, passes, epochs, checkpointing);
   if (best.stopped_in_epoch == 0)
     detail::report(o, 1.0, fmt::format("done: held-out RMSE {:.3f}", best.rmse));
   // Stored as the file stores them: the model in memory evaluates as the one read back.
@@ -397,13 +450,13 @@ std::unique_ptr<Representation> fit_neural_btf(const Btf& tile, const FitOptions
   auto model =
       std::make_unique<NeuralBtf>(ModelFrame::of(tile), shape, e, s.scale,
                                   detail::latent_columns(rows, shape.latent), std::move(theta));
-  if (best.stopped_in_epoch > 0) {
-    Provenance p;
+  Provenance p;
+  if (device) p.fit.settings.emplace_back(kDeviceSetting, device->info().description());
+  if (best.stopped_in_epoch > 0)
     p.fit.settings.emplace_back(
         kStoppedSetting, fmt::format("in epoch {} of {}: the lowest held-out error met, {:.3f}",
                                      best.stopped_in_epoch, epochs, best.rmse));
-    model->set_provenance(std::move(p));
-  }
+  if (!p.fit.settings.empty()) model->set_provenance(std::move(p));
   return model;
 }
 

@@ -106,6 +106,17 @@ constexpr FitParameter most_iterations(std::string_view default_text, std::strin
           .help = help};
 }
 
+// Where a method's fit computes (a compute device, docs/GPU.md), on any route.
+constexpr FitParameter device_parameter(std::string_view help) {
+  return {.field = "device",
+          .type = T::kWord,
+          .member = &FitOptions::device,
+          .choices = "auto cpu gpu",
+          .default_text = "auto",
+          .routes = kAnyRoute,
+          .help = help};
+}
+
 constexpr FitParameter kMixtureParameters[] = {
     model_size("components", &FitOptions::components, "600", "mixture components M"),
     most_iterations("40", "the most EM iterations (resumed or continued: the total to go on to)"),
@@ -154,15 +165,10 @@ constexpr FitParameter kMixtureParameters[] = {
      .help =
          "with the objective prediction, the most passes over the tile's samples the refinement "
          "takes, in place of the default bound of at most 2400 steps"},
-    {.field = "device",
-     .type = T::kWord,
-     .member = &FitOptions::device,
-     .choices = "auto cpu gpu",
-     .default_text = "auto",
-     .routes = kAnyRoute,
-     .help = "where EM and the refinement's steps run, and the predictions sweep and the "
-             "budget's search measure: auto (a GPU where one exists, else the CPU), cpu, or gpu "
-             "(a GPU, else a software Vulkan such as lavapipe; docs/GPU.md)"},
+    device_parameter(
+        "where EM and the refinement's steps run, and the predictions sweep and the "
+        "budget's search measure: auto (a GPU where one exists, else the CPU), cpu, or gpu "
+        "(a GPU, else a software Vulkan such as lavapipe; docs/GPU.md)"),
     {.field = "precision",
      .type = T::kWord,
      .member = &FitOptions::precision,
@@ -281,6 +287,10 @@ constexpr FitParameter kNeuralParameters[] = {
      .help = "the latents' storage: compact (quantised with a step per latent dimension, "
              "predicted from neighbouring texels, zstd), f32, f16 or q8; the network is always "
              "16-bit floats"},
+    device_parameter(
+        "where the network's forward and backward passes run (the Adam steps and the "
+        "validation): auto (a GPU where one exists, else the CPU), cpu, or gpu (a GPU, "
+        "else a software Vulkan such as lavapipe; docs/GPU.md, \"The neural fit\")"),
     // The fit job's checkpoints and resuming (methods/neural_btf_checkpoint.hpp).
     {.field = "checkpoint", .type = T::kText, .routes = FitRoute::kNew | FitRoute::kResume},
     {.field = "checkpoint_every",
@@ -432,7 +442,8 @@ std::unique_ptr<Representation> fit_and_record(const MethodInfo& method, const B
   p.fit.settings = settings_record(method, s);
   p.fit.settings.emplace_back("size", r->size_text());
   for (const auto& [name, value] : r->provenance().fit.settings)
-    if (name == kStoppedSetting) p.fit.settings.emplace_back(name, value);
+    if (name == kStoppedSetting || (name == kDeviceSetting && value != "cpu"))
+      p.fit.settings.emplace_back(name, value);
   p.fit.seconds = seconds_since(t0);
   p.fit.runs = 1;
   r->set_provenance(std::move(p));
