@@ -8,6 +8,7 @@
 
 #include <atomic>
 #include <cmath>
+#include <cstdio>
 #include <cstring>
 #include <string>
 #include <vector>
@@ -295,21 +296,40 @@ TEST(NeuralBtf, TheLadderSpans100To3000) {
   ModelFrame f;
   f.lights = DirectionSet::ubo81();
   f.views = DirectionSet::ubo81();
-  f.width = f.height = 25;
-  const auto ladder = neural_btf_ladder(f);
-  ASSERT_GE(ladder.size(), 4u);
-  const auto ratio = [&](const FitOptions& s) {
-    return f.data_values() / double(neural_btf_parameter_count(
-                                 f, {.latent = s.components, .width = s.width, .depth = s.depth}));
-  };
-  EXPECT_GT(ratio(ladder.front()), 2000.0);
-  EXPECT_LT(ratio(ladder.back()), 150.0);
-  for (std::size_t i = 1; i < ladder.size(); ++i) EXPECT_LT(ratio(ladder[i]), ratio(ladder[i - 1]));
-  // The top two rungs differ in L alone: the size the budget's quick search varies.
-  const FitOptions &a = ladder[ladder.size() - 2], &b = ladder.back();
-  EXPECT_LT(a.components, b.components);
-  EXPECT_EQ(a.width, b.width);
-  EXPECT_EQ(a.depth, b.depth);
+  for (const int size : {25, 64}) {
+    f.width = f.height = size;
+    const auto ladder = neural_btf_ladder(f);
+    ASSERT_GE(ladder.size(), 4u);
+    const auto ratio = [&](const FitOptions& s) {
+      return f.data_values() /
+             double(neural_btf_parameter_count(
+                 f, {.latent = s.components, .width = s.width, .depth = s.depth}));
+    };
+    for (const FitOptions& s : ladder)
+      std::printf("%d x %d: L = %zu, %zu x %zu, 1:%.0f\n", size, size, s.components, s.depth,
+                  s.width, ratio(s));
+    EXPECT_GT(ratio(ladder.front()), 2000.0);
+    EXPECT_LT(ratio(ladder.back()), 150.0);
+    EXPECT_GT(ratio(ladder.back()), 70.0);
+    for (std::size_t i = 1; i < ladder.size(); ++i) {
+      EXPECT_LT(ratio(ladder[i]), ratio(ladder[i - 1]));
+      // From the default network on, two rungs next to each other differ in one size: the
+      // size the budget's quick search varies between them.
+      const FitOptions &a = ladder[i - 1], &b = ladder[i];
+      if (a.width < kNeuralDefaultWidth) continue;
+      EXPECT_EQ(
+          int(a.components != b.components) + int(a.width != b.width) + int(a.depth != b.depth), 1)
+          << "rung " << i;
+    }
+    // The high rates widen the network at L = 16 to kNeuralWidestRung units, then grow L there.
+    EXPECT_TRUE(std::any_of(ladder.begin(), ladder.end(), [](const FitOptions& s) {
+      return s.components == 16 && s.width == kNeuralWidestRung;
+    }));
+    const FitOptions &a = ladder[ladder.size() - 2], &b = ladder.back();
+    EXPECT_EQ(a.width, kNeuralWidestRung);
+    EXPECT_EQ(b.width, kNeuralWidestRung);
+    EXPECT_LT(a.components, b.components);
+  }
 }
 
 }  // namespace

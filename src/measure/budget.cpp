@@ -300,27 +300,36 @@ class QuickSearch {
               const DataFingerprint& data)
       : tile_(tile), r_(r), m_(m), out_(out), data_(data) {}
 
-  // False when the method's ladder has no size to search (then MethodSearch runs).
+  // False when the method's ladder has no size to search (then MethodSearch runs). The ladder
+  // is searched in segments from the top: rungs next to each other that differ in the same one
+  // size (a neural BTF's latent, then its width below). Where the budget lies below a
+  // segment's rungs, the segment below it, whose top rung is that segment's first, is searched.
   bool run() {
     const std::vector<FitOptions> ladder = m_.ladder(ModelFrame::of(tile_));
-    if (ladder.size() < 2) return false;
-    field_ = varying_size(ladder[ladder.size() - 2], ladder.back());
-    if (!field_) return false;
-    base_ = ladder.back();
-    // The rungs the quick search walks: the ladder's top ones that differ in that size alone.
-    first_ = ladder.size() - 2;
-    while (first_ > 0 && varying_size(ladder[first_ - 1], ladder[first_]) == field_) --first_;
-    const std::size_t size = predicted_size(ladder);
-    if (size == 0) return false;
-    choose(size, true);
-    return true;
+    for (std::size_t end = ladder.size(); end >= 2;) {
+      const std::vector<FitOptions> segment(ladder.begin(), ladder.begin() + std::ptrdiff_t(end));
+      field_ = varying_size(segment[end - 2], segment[end - 1]);
+      if (!field_) return false;
+      base_ = segment.back();
+      first_ = end - 2;
+      while (first_ > 0 && varying_size(ladder[first_ - 1], ladder[first_]) == field_) --first_;
+      below_ = false;
+      slope_ = 0.0;
+      if (const std::size_t size = predicted_size(segment); size > 0) {
+        choose(size, true);
+        return true;
+      }
+      if (!below_) return false;
+      end = first_ + 1;
+    }
+    return false;
   }
 
  private:
   // The size whose full fit's file the probes put at the budget; 0 when the method refused
   // every size probed, or when the budget is below the top rungs that differ in the size alone
-  // (first_) and rungs below them differ in another. The largest rung the method accepts is
-  // probed first: a budget above it needs no other rung. Below it, the rungs from first_ are
+  // (first_) and rungs below them differ in another (below_). The largest rung the method accepts
+  // is probed first: a budget above it needs no other rung. Below it, the rungs from first_ are
   // walked up (the cheapest probes first) to the first over the budget.
   std::size_t predicted_size(const std::vector<FitOptions>& ladder) {
     const double budget = double(r_.budget);
@@ -345,8 +354,11 @@ class QuickSearch {
       }
       if (fits) return std::min(line_size(*fits, *p), p->size - 1);
       // The smallest rung of this size over, below it rungs that differ in another: none
-      // predicted (the method's sizes are searched by full fits instead).
-      if (k > 0) return 0;
+      // predicted here (the segment below is searched).
+      if (k > 0) {
+        below_ = true;
+        return 0;
+      }
       // The smallest rung is over: the line through it and the next, below it.
       const std::optional<PredictedBytes> next =
           k + 1 == top ? at_top : (k + 1 < top ? probe(ladder[k + 1].*field_) : std::nullopt);
@@ -393,11 +405,17 @@ class QuickSearch {
   }
 
   // A probe of `size`, fitted (not measured) once: the bytes its file predicts for the full
-  // fit; none where the method refuses the size for the tile (recorded as skipped). Two rungs
-  // of one size (rungs that differ in another parameter than the one searched) share it.
+  // fit; none where the method refuses the size for the tile (recorded as skipped). A setting
+  // is probed once.
   std::optional<PredictedBytes> probe(std::size_t size) {
-    if (const auto at = probed_.find(size); at != probed_.end()) return at->second;
-    return probed_[size] = fitted_probe(size);
+    const std::string key = settings_text(setting(size));
+    if (const auto at = probed_.find(key); at != probed_.end()) {
+      if (!at->second) return std::nullopt;
+      return PredictedBytes{size, *at->second};
+    }
+    const std::optional<PredictedBytes> p = fitted_probe(size);
+    probed_[key] = p ? std::optional<double>(p->bytes) : std::nullopt;
+    return p;
   }
 
   std::optional<PredictedBytes> fitted_probe(std::size_t size) {
@@ -485,8 +503,11 @@ class QuickSearch {
   SizeField field_ = nullptr;
   FitOptions base_;
   double slope_ = 0.0;
-  std::map<std::size_t, std::optional<PredictedBytes>> probed_;
-  std::size_t first_ = 0;  // the first rung of the top ones that differ in field_ alone
+  // The predicted bytes of each setting probed (by its settings' text: a rung where two
+  // segments meet is probed once); none where the method refused it.
+  std::map<std::string, std::optional<double>> probed_;
+  std::size_t first_ = 0;  // the first rung of the segment's, which differ in field_ alone
+  bool below_ = false;     // the budget lies below the segment's rungs
 };
 
 // No candidate fits: the smallest file possible (`smallest`, with the note of that budget,

@@ -266,38 +266,72 @@ std::unique_ptr<Representation> read_neural_btf(std::span<const std::uint8_t> pa
                                      detail::latent_columns(rows, shape.latent), std::move(theta));
 }
 
+namespace {
+
+// The ladder's path of shapes, growing: below the default width, small networks of a short
+// latent; then the latent grown at the default network to L = 16; then the network widened
+// at L = 16 to kNeuralWidestRung units; then the latent grown at that width (tiles of many
+// texels). On generated knit 25 x 25 the width pays where a longer latent does not (docs/
+// BENCHMARKS.md, "Widening the network at the high rates": L = 16, 2 x 128 at 50 KB over
+// L = 64, 2 x 64 at 57 KB by 1.2 dB).
+std::vector<NeuralShape> ladder_path() {
+  std::vector<NeuralShape> path;
+  for (std::size_t width : {8, 16, 32}) path.push_back({2, width, kNeuralDefaultDepth});
+  for (std::size_t width : {16, 32}) path.push_back({4, width, kNeuralDefaultDepth});
+  for (std::size_t latent : {2, 4, 8, 16})
+    path.push_back({latent, kNeuralDefaultWidth, kNeuralDefaultDepth});
+  for (std::size_t width : {96, 128, 192, 256}) path.push_back({16, width, kNeuralDefaultDepth});
+  for (std::size_t latent : {32, 64, 128})
+    path.push_back({latent, kNeuralWidestRung, kNeuralDefaultDepth});
+  return path;
+}
+
+int fields_apart(const NeuralShape& a, const NeuralShape& b) {
+  return int(a.latent != b.latent) + int(a.width != b.width) + int(a.depth != b.depth);
+}
+
+// `chosen` (indices of `path`, increasing) with, between two that differ in more than one
+// size, the shape of the path between them that differs from each in one (the path's corner):
+// so the rungs on either side of it differ in one size, which the budget's quick search varies.
+std::vector<std::size_t> with_corners(const std::vector<NeuralShape>& path,
+                                      const std::vector<std::size_t>& chosen) {
+  std::vector<std::size_t> out;
+  for (const std::size_t i : chosen) {
+    if (!out.empty() && fields_apart(path[out.back()], path[i]) > 1)
+      for (std::size_t k = out.back() + 1; k < i; ++k)
+        if (fields_apart(path[out.back()], path[k]) == 1 && fields_apart(path[k], path[i]) == 1) {
+          out.push_back(k);
+          break;
+        }
+    out.push_back(i);
+  }
+  return out;
+}
+
+}  // namespace
+
 std::vector<FitOptions> neural_btf_ladder(const ModelFrame& frame) {
-  // Candidate shapes, then for each ratio the nearest candidate (in log ratio), each once:
-  // below the default width, smaller networks of a short latent; from it, longer latents at
-  // the default network, so that the ladder's top rungs differ in L alone (the budget's quick
-  // search varies that size).
-  std::vector<NeuralShape> shapes;
-  for (std::size_t width : {8, 16, 32}) shapes.push_back({2, width, kNeuralDefaultDepth});
-  for (std::size_t width : {16, 32}) shapes.push_back({4, width, kNeuralDefaultDepth});
-  for (std::size_t latent : {2, 4, 8, 16, 32, 64, 128})
-    shapes.push_back({latent, kNeuralDefaultWidth, kNeuralDefaultDepth});
+  // For each ratio the nearest shape of the path (in log ratio), each once, in the path's
+  // order (which grows in parameters), with the corners between.
+  const std::vector<NeuralShape> path = ladder_path();
   std::vector<std::size_t> chosen;
   for (double target : {3000.0, 1600.0, 800.0, 400.0, 200.0, 100.0}) {
     std::size_t best = 0;
     double best_gap = std::numeric_limits<double>::infinity();
-    for (std::size_t i = 0; i < shapes.size(); ++i) {
-      const double ratio =
-          frame.data_values() / double(neural_btf_parameter_count(frame, shapes[i]));
+    for (std::size_t i = 0; i < path.size(); ++i) {
+      const double ratio = frame.data_values() / double(neural_btf_parameter_count(frame, path[i]));
       const double gap = std::abs(std::log(ratio / target));
       if (gap < best_gap) best = i, best_gap = gap;
     }
     if (std::find(chosen.begin(), chosen.end(), best) == chosen.end()) chosen.push_back(best);
   }
-  std::sort(chosen.begin(), chosen.end(), [&](std::size_t a, std::size_t b) {
-    return neural_btf_parameter_count(frame, shapes[a]) <
-           neural_btf_parameter_count(frame, shapes[b]);
-  });
+  std::sort(chosen.begin(), chosen.end());
   std::vector<FitOptions> out;
-  for (const std::size_t i : chosen) {
+  for (const std::size_t i : with_corners(path, chosen)) {
     FitOptions s;
-    s.components = shapes[i].latent;
-    s.width = shapes[i].width;
-    s.depth = shapes[i].depth;
+    s.components = path[i].latent;
+    s.width = path[i].width;
+    s.depth = path[i].depth;
     out.push_back(s);
   }
   return out;

@@ -88,10 +88,13 @@ std::unique_ptr<Representation> fit_neural_btf(const Btf& tile, const FitOptions
 // Reads NeuralBtf::payload(); Error(kFormat) naming `name`.
 std::unique_ptr<Representation> read_neural_btf(std::span<const std::uint8_t> payload,
                                                 std::uint32_t flags, const std::string& name);
-// Shapes spanning Table 2 ratios from about 1:100 to 1:3000 on `frame`, smallest first: small
-// networks (a latent of 2 or 4, 8 to 32 units) at the low rates, then the default network
-// (2 x 64) with a longer latent, L = 2 to 128, so that on a tile of many texels the top rungs
-// differ in L alone.
+// Shapes spanning Table 2 ratios from about 1:100 to 1:3000 on `frame`, smallest first, along
+// one path: small networks (a latent of 2 or 4, 8 to 32 units) at the low rates, then the
+// default network (2 x 64) with a longer latent, L = 2 to 16, then at L = 16 the network
+// widened to 96 .. kNeuralWidestRung units, then at that width L = 32 to 128. Two rungs next to
+// each other differ in one size where the path allows (its corners are rungs too), so that the
+// budget's quick search varies one size between them.
+inline constexpr std::size_t kNeuralWidestRung = 256;
 std::vector<FitOptions> neural_btf_ladder(const ModelFrame& frame);
 
 // `fit --budget`'s quick search of L (QuickSizeSearch, methods/registry.hpp): a probe is the
