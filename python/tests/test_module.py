@@ -90,6 +90,10 @@ def test_a_model_loaded_onto_the_gpu_gives_the_cpus_values(work):
     np.testing.assert_allclose(nn_gpu.eval(q), nn_cpu.eval(q), rtol=0, atol=1e-3)
     np.testing.assert_allclose(nn_gpu.decode((30, 45), (20, 100), size=(10, 7)),
                                nn_cpu.decode((30, 45), (20, 100), size=(10, 7)), rtol=0, atol=1e-3)
+    # The neural fit's passes on the device too: the CPU's model to float rounding.
+    fitted = btfgmm.fit(work["btf"], tile=(0, 0, 6, 6), method="neural", components=3, width=8,
+                        iterations=2, seed=4, device="gpu")
+    np.testing.assert_allclose(fitted.eval(q), nn_cpu.eval(q), rtol=0, atol=0.05)
     with pytest.raises(btfgmm.ArgumentError, match="cpu or auto"):
         btfgmm.load(work["pca"], device="gpu")
     with pytest.raises(btfgmm.ArgumentError, match="'auto', 'cpu' or 'gpu'"):
