@@ -40,16 +40,6 @@ Btf small_tile(const std::string& material, int size) {
   return generate(g);
 }
 
-FitOptions neural_options(int epochs) {
-  FitOptions s;
-  s.method = "neural";
-  s.components = 4;
-  s.width = 16;
-  s.depth = 2;
-  s.iterations = epochs;
-  return s;
-}
-
 std::unique_ptr<Representation> fit(const Btf& tile, const FitOptions& s) {
   return fit_and_record(find_method("neural"), tile, s, {});
 }
@@ -85,7 +75,7 @@ std::vector<float> predicted(const Representation& m, const std::vector<Query>& 
 TEST(NeuralBtf, FileReadBackEvaluatesBitForBit) {
   const Btf tile = small_tile("knit", 8);
   for (const char* precision : {"compact", "q8", "f16"}) {
-    FitOptions s = neural_options(3);
+    FitOptions s = test::small_neural_options(3);
     s.precision = parse_factor_encoding(precision, "precision");
     const auto model = fit(tile, s);
     const auto bytes = representation_file_bytes(*model);
@@ -105,7 +95,7 @@ TEST(NeuralBtf, FileReadBackEvaluatesBitForBit) {
 
 TEST(NeuralBtf, PredictAtTexelsIsDecode) {
   const Btf tile = small_tile("knit", 8);
-  const auto model = fit(tile, neural_options(2));
+  const auto model = fit(tile, test::small_neural_options(2));
   const Btf d = model->decode(tile.lights(), tile.views(), 8, 8, 0.0);
   std::vector<Query> q;
   for (int y = 0; y < 8; ++y)
@@ -119,7 +109,7 @@ TEST(NeuralBtf, PredictAtTexelsIsDecode) {
 // A query's answer is the same bits alone, among 40 or among 1,100 (the blocks of the forward
 // pass padded: Eigen's product for one sample would sum in another order).
 TEST(NeuralBtf, AQuerysAnswerDoesNotDependOnTheQueriesBesideIt) {
-  const auto model = fit(small_tile("knit", 8), neural_options(2));
+  const auto model = fit(small_tile("knit", 8), test::small_neural_options(2));
   std::vector<Query> many;
   for (int k = 0; k < 28; ++k)
     for (const Query& q : mixed_queries()) many.push_back(q);
@@ -136,7 +126,7 @@ TEST(NeuralBtf, AQuerysAnswerDoesNotDependOnTheQueriesBesideIt) {
 }
 
 TEST(NeuralBtf, TruncatedOrDamagedPayloadsAreRefusedByName) {
-  const auto model = fit(small_tile("knit", 8), neural_options(1));
+  const auto model = fit(small_tile("knit", 8), test::small_neural_options(1));
   const auto payload = model->payload();
   for (std::size_t n = 0; n < payload.size(); ++n) {
     const std::string e =
@@ -175,7 +165,7 @@ TEST(NeuralBtf, TruncatedOrDamagedPayloadsAreRefusedByName) {
 // Each byte of the payload changed in turn: read back, or refused by name, never a crash;
 // a model read from a changed payload still decodes.
 TEST(NeuralBtf, EveryChangedByteIsReadOrRefused) {
-  const auto model = fit(small_tile("knit", 8), neural_options(1));
+  const auto model = fit(small_tile("knit", 8), test::small_neural_options(1));
   const auto payload = model->payload();
   std::size_t refused = 0;
   for (std::size_t i = 0; i < payload.size(); ++i) {
@@ -206,7 +196,7 @@ TEST(NeuralBtf, TheSameFileOnOneAndTwoThreads) {
   g.size = 16;
   g.lights = g.views = DirectionSet::parse("rings:0/1,30/6,60/8");
   const Btf tile = generate(g);
-  FitOptions s = neural_options(1);
+  FitOptions s = test::small_neural_options(1);
   s.threads = 1;
   const auto one = representation_file_bytes(*fit(tile, s));
   s.threads = 2;
@@ -236,7 +226,7 @@ Btf teacher_tile() {
 
 TEST(NeuralBtf, LearnsATeacherNetworkOfItsShape) {
   const Btf tile = teacher_tile();
-  const auto model = fit(tile, neural_options(60));
+  const auto model = fit(tile, test::small_neural_options(60));
   // The teacher's values: mean 97, deviation 30 levels. Its student, from another start,
   // reproduces them within 7 levels RMSE (5.6 measured; the 16-bit network and the quantised
   // latents included), where the teacher's mean alone is 30 levels off.
@@ -245,7 +235,7 @@ TEST(NeuralBtf, LearnsATeacherNetworkOfItsShape) {
 
 TEST(NeuralBtf, FitsAGeneratedTileAboveAStatedPsnr) {
   const Btf tile = small_tile("knit", 12);
-  FitOptions s = neural_options(30);
+  FitOptions s = test::small_neural_options(30);
   s.components = 8;
   s.width = 32;
   const auto model = fit(tile, s);
@@ -259,7 +249,7 @@ TEST(NeuralBtf, AStopKeepsTheBestModelMetAndSaysSo) {
   const Btf tile = small_tile("knit", 8);
   auto stopped_fit = [&](int at) {
     std::atomic<bool> stop{false};
-    FitOptions s = neural_options(50);
+    FitOptions s = test::small_neural_options(50);
     int reports = 0;
     s.stop = &stop;
     s.progress = [&](double, std::string_view) {
@@ -276,18 +266,19 @@ TEST(NeuralBtf, AStopKeepsTheBestModelMetAndSaysSo) {
   EXPECT_NE(settings[0].second.find("in epoch 1 of 50"), std::string::npos) << settings[0].second;
   EXPECT_EQ(representation_file_bytes(*a), representation_file_bytes(*b));
   // A whole fit records no stop.
-  EXPECT_TRUE(fit_neural_btf(tile, neural_options(1))->provenance().fit.settings.empty());
+  EXPECT_TRUE(
+      fit_neural_btf(tile, test::small_neural_options(1))->provenance().fit.settings.empty());
 }
 
 TEST(NeuralBtf, NonsenseSizesAreRefused) {
   const Btf tile = small_tile("knit", 8);
-  FitOptions s = neural_options(1);
+  FitOptions s = test::small_neural_options(1);
   s.components = 300;
   EXPECT_NE(test::error_of([&] { fit(tile, s); }).find("takes 1..256"), std::string::npos);
-  s = neural_options(1);
+  s = test::small_neural_options(1);
   s.depth = 17;
   EXPECT_NE(test::error_of([&] { fit(tile, s); }).find("hidden layers"), std::string::npos);
-  s = neural_options(1);
+  s = test::small_neural_options(1);
   s.clusters = 3;
   EXPECT_NE(test::error_of([&] { fit(tile, s); }).find("clusters"), std::string::npos);
 }

@@ -84,11 +84,7 @@ TEST(NeuralFitGpu, GradientIsTheCpusWithinFloatRounding) {
 }
 
 FitOptions small_fit(const std::string& device) {
-  FitOptions s;
-  s.method = "neural";
-  s.components = 4;
-  s.width = 16;
-  s.iterations = 3;
+  FitOptions s = test::small_neural_options(3);
   s.device = device;
   return s;
 }

@@ -24,13 +24,7 @@ namespace {
 
 // A neural BTF fitted to a generated 8 x 8 knit (L = 4, 2 x 16, two epochs).
 std::unique_ptr<Representation> small_neural(const Btf& tile) {
-  FitOptions s;
-  s.method = "neural";
-  s.components = 4;
-  s.width = 16;
-  s.depth = 2;
-  s.iterations = 2;
-  return fit_and_record(find_method("neural"), tile, s, {});
+  return fit_and_record(find_method("neural"), tile, test::small_neural_options(2), {});
 }
 
 Btf small_tile() {

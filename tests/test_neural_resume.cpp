@@ -29,12 +29,7 @@ Btf small_tile() {
 }
 
 FitOptions options(int epochs) {
-  FitOptions s;
-  s.method = "neural";
-  s.components = 4;
-  s.width = 16;
-  s.depth = 2;
-  s.iterations = epochs;
+  FitOptions s = test::small_neural_options(epochs);
   s.seed = 3;
   return s;
 }

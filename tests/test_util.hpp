@@ -18,6 +18,7 @@
 #include "btfgmm/core/error.hpp"
 #include "btfgmm/core/text.hpp"
 #include "btfgmm/gpu/compute_device.hpp"
+#include "btfgmm/methods/representation.hpp"
 #include "btfgmm/synth/generate.hpp"
 
 namespace btfgmm::test {
@@ -57,6 +58,17 @@ inline Btf generated_tile(const std::string& material, int size, std::uint64_t s
   g.lights = DirectionSet::parse(lights);
   g.views = DirectionSet::parse(views);
   return generate(g);
+}
+
+// A neural BTF's fit small enough for any test's tile: L = 4, 2 x 16, at most `epochs` epochs.
+inline FitOptions small_neural_options(int epochs) {
+  FitOptions s;
+  s.method = "neural";
+  s.components = 4;
+  s.width = 16;
+  s.depth = 2;
+  s.iterations = epochs;
+  return s;
 }
 
 // The command's flag of a field (cli/cli_util.hpp, command_line_option): "--refine-steps".
