@@ -8,6 +8,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <optional>
 #include <random>
 #include <string>
 #include <vector>
@@ -293,17 +294,25 @@ TEST(Gpu, ASoftwareDeviceRefusesALoopItWouldCut) {
   EXPECT_NO_THROW(gpu->normal_equations(mix, 40, nullptr, {}));
 }
 
-// The default fit on the device (EM and the refinement's steps there) twice: the same model.
+// The default fit on the device (EM and the refinement's steps there) twice: the same model,
+// also where the second states the refinement's plan first (timed on the pass it then refines
+// with).
 TEST(Gpu, TheRefinementOnTheDeviceIsTheSameRunAfterRun) {
   REQUIRE_DEVICE(device);
   const Btf btf = test::generated_tile("corduroy", 8, 1, "spiral:13", "spiral:11");
-  auto fit = [&] {
+  auto fit = [&](const FitObserver* watch) {
     FitConfig c = mixture_config(20, 4, 1, 2);
     c.refinement_epochs = 2;
     c.device = DeviceChoice::kGpu;
-    return decode(fit_model(btf, c), btf.lights(), btf.views(), btf.width(), btf.height());
+    return decode(fit_model(btf, c, {}, nullptr, {}, nullptr, watch), btf.lights(), btf.views(),
+                  btf.width(), btf.height());
   };
-  const Btf a = fit(), b = fit();
+  std::optional<RefinementEstimate> plan;
+  FitObserver planned;
+  planned.refinement_planned = [&](const RefinementEstimate& e) { plan = e; };
+  const Btf a = fit(nullptr), b = fit(&planned);
+  ASSERT_TRUE(plan);
+  EXPECT_GT(plan->step_seconds, 0.0);
   EXPECT_TRUE(std::equal(a.data().begin(), a.data().end(), b.data().begin(), b.data().end()));
 }
 
