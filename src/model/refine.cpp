@@ -333,12 +333,12 @@ RefinementEstimate estimate_refinement(const SampleSet& samples, const ProductMi
 
 PredictionRefinement refine_for_prediction(const SampleSet& samples, ProductMixture& mix,
                                            int threads, const GradientConfig& gradient) {
-  // Every process of a distributed fit estimates, told or not: its timed passes are folded
-  // over the processes, which each must join.
   // The refinement's seconds count the pass's making, not the estimate.
   auto t0 = std::chrono::steady_clock::now();
   const auto pass =
       detail::make_prediction_pass(samples, mix.size(), threads, gradient.device.get());
+  // Every process of a distributed fit estimates, told or not: its timed passes are folded
+  // over the processes, which each must join.
   if (gradient.planned || samples.processes) {
     const auto estimating = std::chrono::steady_clock::now();
     const RefinementEstimate estimate = estimate_with(samples, mix, threads, gradient, *pass);
