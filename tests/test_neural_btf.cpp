@@ -3,7 +3,7 @@
 // damaged payload is refused by name, any changed byte read or refused without a crash, the
 // same file on 1 and 2 threads, a BTF made by a network of known parameters learnt to a stated
 // error, a generated tile fitted above a stated PSNR, a stop honoured, nonsense sizes refused,
-// and the ladder's ratios.
+// the default epochs' bound in steps, and the ladder's ratios.
 #include <gtest/gtest.h>
 
 #include <atomic>
@@ -18,6 +18,7 @@
 #include "btfgmm/methods/registry.hpp"
 #include "btfgmm/synth/generate.hpp"
 #include "core/random.hpp"
+#include "methods/neural_btf_internal.hpp"
 #include "methods/neural_network.hpp"
 #include "test_util.hpp"
 
@@ -281,6 +282,37 @@ TEST(NeuralBtf, NonsenseSizesAreRefused) {
   s = test::small_neural_options(1);
   s.clusters = 3;
   EXPECT_NE(test::error_of([&] { fit(tile, s); }).find("clusters"), std::string::npos);
+}
+
+// The training samples of a W x W tile of 81 x 81 directions (1 in 20 held out).
+std::size_t training_of(std::size_t width) {
+  return width * width * 6561 * 19 / 20;
+}
+
+TEST(NeuralBtf, TheDefaultEpochsGiveALargeTileSeveralPassesWithinABoundInSteps) {
+  const auto steps_of = [](std::size_t training) {
+    const std::size_t batch = detail::neural_batch_size(training);
+    return (training + batch - 1) / batch;
+  };
+  // 25 x 25: 18 epochs of 952 steps; 64 x 64 (the paper's tile): 6 of 6,233; 100 x 100: 2;
+  // a 256 x 256 tile of UBO2014's 151 x 151 directions: one pass of 346,580 steps.
+  EXPECT_EQ(detail::neural_default_epochs(training_of(25)), 18);
+  EXPECT_EQ(detail::neural_default_epochs(training_of(44)), 6);
+  EXPECT_EQ(detail::neural_default_epochs(training_of(64)), 6);
+  EXPECT_EQ(detail::neural_default_epochs(training_of(100)), 2);
+  EXPECT_EQ(detail::neural_default_epochs(std::size_t(256) * 256 * 22801 * 19 / 20), 1);
+  EXPECT_EQ(detail::neural_default_epochs(1520), kNeuralDefaultEpochs);  // 8 x 8, 25 pairs
+  int before = kNeuralDefaultEpochs;
+  for (double training = 1000; training < 2e9; training *= 1.1) {
+    const std::size_t n = std::size_t(training), steps = steps_of(n);
+    const int epochs = detail::neural_default_epochs(n);
+    EXPECT_LE(epochs, before) << n << " samples";
+    EXPECT_LE(std::size_t(epochs) * steps, std::max(kNeuralMostSteps, steps)) << n;
+    if (steps <= kNeuralMostSteps / std::size_t(kNeuralLeastEpochs)) {
+      EXPECT_GE(epochs, kNeuralLeastEpochs) << n << " samples";
+    }
+    before = epochs;
+  }
 }
 
 TEST(NeuralBtf, TheLadderSpans100To3000) {

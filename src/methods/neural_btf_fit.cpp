@@ -28,6 +28,23 @@
 #include "methods/pca_methods.hpp"
 
 namespace btfgmm {
+
+std::size_t detail::neural_batch_size(std::size_t training) {
+  return std::clamp<std::size_t>(training / 64, 128, 4096);
+}
+
+// 30 epochs where they take at most kNeuralDefaultSteps steps, 6 where those take at most
+// kNeuralMostSteps, else as many as kNeuralMostSteps allow, and at least one.
+int detail::neural_default_epochs(std::size_t training) {
+  const std::size_t batch = neural_batch_size(training);
+  const std::size_t steps = std::max<std::size_t>((training + batch - 1) / batch, 1);
+  const std::size_t within_default =
+      std::min<std::size_t>(kNeuralDefaultSteps / steps, std::size_t(kNeuralDefaultEpochs));
+  const std::size_t least =
+      std::min<std::size_t>(kNeuralMostSteps / steps, std::size_t(kNeuralLeastEpochs));
+  return int(std::max<std::size_t>({within_default, least, 1}));
+}
+
 namespace {
 
 constexpr std::string_view kMethod = "neural";
@@ -201,9 +218,8 @@ std::vector<float> initial_theta(const Samples& s, std::uint64_t seed) {
   return theta;
 }
 
-// The minibatch size: about 64 steps an epoch, 128 to 4096 samples.
 std::size_t batch_size(const Samples& s) {
-  return std::clamp<std::size_t>(s.training.size() / 64, 128, 4096);
+  return detail::neural_batch_size(s.training.size());
 }
 
 // The squared error's gradient over a batch (detail::squared_error_gradient's), where the
@@ -278,13 +294,9 @@ bool stop_asked(const FitOptions& o) {
   return o.stop && o.stop->load();
 }
 
-// The epochs a fit takes at most: `iterations` where given, else kNeuralDefaultEpochs, fewer
-// on a large tile so that they take at most about kNeuralDefaultSteps steps (a bound in work,
-// as the refinement's kDefaultRefineSteps: the same model on any machine at any load).
+// The epochs a fit takes at most: `iterations` where given, else the default's.
 int most_epochs(const Samples& s, const FitOptions& o) {
-  if (o.iterations > 0) return o.iterations;
-  const std::size_t steps = (s.training.size() + batch_size(s) - 1) / batch_size(s);
-  return int(std::clamp<std::size_t>(kNeuralDefaultSteps / steps, 1, kNeuralDefaultEpochs));
+  return o.iterations > 0 ? o.iterations : detail::neural_default_epochs(s.training.size());
 }
 
 // Where a fit stands (NeuralFitState, methods/neural_btf_checkpoint.hpp): Adam, the best

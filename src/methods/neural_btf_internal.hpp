@@ -15,6 +15,13 @@ namespace btfgmm::detail {
 
 NetworkShape network_shape(const NeuralShape& s);
 
+// A fit's minibatch over `training` samples: about 64 steps an epoch, 128 to 4096 samples.
+std::size_t neural_batch_size(std::size_t training);
+// The most epochs of a fit over `training` samples where `iterations` is not given
+// (kNeuralDefaultEpochs .. kNeuralMostSteps, methods/neural_btf.hpp): a bound in work, as the
+// refinement's kDefaultRefineSteps, so the same model on any machine at any load.
+int neural_default_epochs(std::size_t training);
+
 // The latents (pixels x L, a texel's together, as the network reads them) as L rows of a value
 // per texel (as the file stores them: a row per latent dimension, each quantised with its own
 // offset and step), and back.

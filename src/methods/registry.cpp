@@ -276,8 +276,8 @@ constexpr FitParameter kNeuralParameters[] = {
      .help = "hidden layers of the network"},
     most_iterations("30",
                     "the most epochs (passes over the training samples; by default fewer "
-                    "where 30 take more than 18,000 Adam steps); the held-out error ends them "
-                    "earlier"),
+                    "where 30 take more than 18,000 Adam steps, but at least 6 where those "
+                    "take at most 40,000); the held-out error ends them earlier"),
     {.field = "precision",
      .type = T::kWord,
      .member = &FitOptions::precision,

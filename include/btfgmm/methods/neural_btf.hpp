@@ -66,19 +66,23 @@ class NeuralBtf final : public Representation {
 
 // The default shape of a fit (`components` L, `width`, `depth`) and its most epochs
 // (`iterations`): 30, fewer where they would take more than about 18,000 Adam steps (a 25 x 25
-// tile of 81 x 81 directions: 18 epochs of 950 steps, 4 minutes on 2 cores).
+// tile of 81 x 81 directions: 18 epochs of 950 steps, 4 minutes on 2 cores), but at least 6
+// where those take at most about 40,000 steps (a 64 x 64 tile: 6 epochs of 6,234 steps; a
+// texel's latent learns only from its own samples, once an epoch), and at least one.
 constexpr std::size_t kNeuralDefaultLatent = 8;
 constexpr std::size_t kNeuralDefaultWidth = 64;
 constexpr std::size_t kNeuralDefaultDepth = 2;
 constexpr int kNeuralDefaultEpochs = 30;
 constexpr std::size_t kNeuralDefaultSteps = 18000;
+constexpr int kNeuralLeastEpochs = 6;
+constexpr std::size_t kNeuralMostSteps = 40000;
 
 // W*H*L + the network's parameters: the neural BTF's stored values on `frame`.
 std::uint64_t neural_btf_parameter_count(const ModelFrame& frame, const NeuralShape& shape);
 
 // Fits a neural BTF to a tile: s.components = L (8), s.width (64), s.depth (2) hidden layers,
 // s.iterations = the most epochs (passes over the training samples; by default 30, fewer on a
-// large tile: kNeuralDefaultSteps), s.seed, s.threads
+// large tile: detail::neural_default_epochs), s.seed, s.threads
 // (the model does not depend on them), s.precision (the latents' storage; the network is
 // always 16-bit floats). Adam on minibatches of the training samples; 1 in 20 samples held out
 // (model/refine.hpp, validation_sample) choose the parameters kept (the lowest held-out error)
