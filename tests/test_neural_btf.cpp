@@ -295,7 +295,7 @@ TEST(NeuralBtf, TheDefaultEpochsGiveALargeTileSeveralPassesWithinABoundInSteps) 
     return (training + batch - 1) / batch;
   };
   // 25 x 25: 18 epochs of 952 steps; 64 x 64 (the paper's tile): 6 of 6,233; 100 x 100: 2;
-  // a 256 x 256 tile of UBO2014's 151 x 151 directions: one pass of 346,580 steps.
+  // a 256 x 256 tile of UBO2014's 151 x 151 directions: one pass of 346,576 steps.
   EXPECT_EQ(detail::neural_default_epochs(training_of(25)), 18);
   EXPECT_EQ(detail::neural_default_epochs(training_of(44)), 6);
   EXPECT_EQ(detail::neural_default_epochs(training_of(64)), 6);

@@ -33,11 +33,15 @@ std::size_t detail::neural_batch_size(std::size_t training) {
   return std::clamp<std::size_t>(training / 64, 128, 4096);
 }
 
+std::size_t detail::neural_epoch_steps(std::size_t training) {
+  const std::size_t batch = neural_batch_size(training);
+  return std::max<std::size_t>((training + batch - 1) / batch, 1);
+}
+
 // 30 epochs where they take at most kNeuralDefaultSteps steps, 6 where those take at most
 // kNeuralMostSteps, else as many as kNeuralMostSteps allow, and at least one.
 int detail::neural_default_epochs(std::size_t training) {
-  const std::size_t batch = neural_batch_size(training);
-  const std::size_t steps = std::max<std::size_t>((training + batch - 1) / batch, 1);
+  const std::size_t steps = neural_epoch_steps(training);
   const std::size_t within_default =
       std::min<std::size_t>(kNeuralDefaultSteps / steps, std::size_t(kNeuralDefaultEpochs));
   const std::size_t least =
@@ -376,7 +380,7 @@ Training resumed(const Samples& s, const NeuralFitState& k, int epochs, std::siz
 Best train(const Samples& s, const FitOptions& o, const NetworkPasses& passes, int epochs,
            const NeuralCheckpointing& c) {
   std::vector<std::uint32_t> order = s.training;
-  const std::size_t batch = batch_size(s), steps = (order.size() + batch - 1) / batch;
+  const std::size_t batch = batch_size(s), steps = detail::neural_epoch_steps(order.size());
   const std::size_t every = std::max<std::size_t>(1, steps / 4);
   Training t = c.resume ? resumed(s, *c.resume, epochs, steps) : started(s, o, passes);
   for (int e = 0; e < t.epoch; ++e) shuffle_for_epoch(order, o.seed, e);  // each shuffles the last

@@ -17,6 +17,8 @@ NetworkShape network_shape(const NeuralShape& s);
 
 // A fit's minibatch over `training` samples: about 64 steps an epoch, 128 to 4096 samples.
 std::size_t neural_batch_size(std::size_t training);
+// The Adam steps of one epoch over `training` samples, at least one.
+std::size_t neural_epoch_steps(std::size_t training);
 // The most epochs of a fit over `training` samples where `iterations` is not given
 // (kNeuralDefaultEpochs .. kNeuralMostSteps, methods/neural_btf.hpp): a bound in work, as the
 // refinement's kDefaultRefineSteps, so the same model on any machine at any load.

@@ -66,7 +66,7 @@ class NeuralBtf final : public Representation {
 
 // The default shape of a fit (`components` L, `width`, `depth`) and its most epochs
 // (`iterations`): 30, fewer where they would take more than about 18,000 Adam steps (a 25 x 25
-// tile of 81 x 81 directions: 18 epochs of 950 steps, 4 minutes on 2 cores), but at least 6
+// tile of 81 x 81 directions: 18 epochs of 952 steps, 4 minutes on 2 cores), but at least 6
 // where those take at most about 40,000 steps (a 64 x 64 tile: 6 epochs of 6,233 steps; a
 // texel's latent learns only from its own samples, once an epoch), and at least one.
 constexpr std::size_t kNeuralDefaultLatent = 8;
