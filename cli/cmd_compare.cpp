@@ -205,20 +205,28 @@ void run_compare(const CompareArguments& o) {
   co.worst_pairs = o.worst;
   // Every model is read and checked against the BTF before any work.
   const std::vector<std::shared_ptr<const Representation>> models = read_models(o, info);
-  // Then each model's tile of the data is the data it was fitted to, by its provenance.
-  std::vector<DataMatch> matches;
-  for (std::size_t k = 0; k < models.size(); ++k) {
+  // Then each model's tile of the data is the data it was fitted to, by its provenance: a crop,
+  // or the seamless tile it names made again.
+  std::vector<BtfSource> fitted;
+  for (const auto& model : models) fitted.push_back(fitted_source(src, model->provenance()));
+  const auto load_tile = [&](std::size_t k) {
     const ModelFrame& m = models[k]->frame();
     const Tile tile{.x = m.origin.x, .y = m.origin.y, .width = m.width, .height = m.height};
-    if (!tile_data || tile_data->origin() != tile) tile_data = src.load(tile);
+    const auto* map = fitted[k].pixel_map();
+    if (!tile_data || tile_data->origin() != tile ||
+        tile_data->made_from() != (map ? map->description : std::string()))
+      tile_data = fitted[k].load(tile);
+    return tile;
+  };
+  std::vector<DataMatch> matches;
+  for (std::size_t k = 0; k < models.size(); ++k) {
+    load_tile(k);
     matches.push_back(check_data(*models[k], o.models[k], *tile_data, info, o));
   }
   for (std::size_t k = 0; k < models.size(); ++k) {
     const auto t0 = Clock::now();
-    const ModelFrame& m = models[k]->frame();
     const std::string& path = o.models[k];
-    const Tile tile{.x = m.origin.x, .y = m.origin.y, .width = m.width, .height = m.height};
-    if (!tile_data || tile_data->origin() != tile) tile_data = src.load(tile);
+    const Tile tile = load_tile(k);
     results.push_back(
         compare_model(*tile_data, models[k], path, std::uint64_t(fs::file_size(path)), co));
     if (k == 0 && !o.report.empty()) first_tile = *tile_data;  // the report's side by side

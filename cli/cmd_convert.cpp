@@ -22,7 +22,7 @@ struct ConvertCommandOptions {
 };
 
 void run_convert(const ConvertCommandOptions& o) {
-  const btfgmm::BtfSource src = btfgmm::BtfSource::open(o.data);
+  btfgmm::BtfSource src = btfgmm::BtfSource::open(o.data);
   btfgmm::ConvertOptions c;
   if (o.format == "png") c.format = btfgmm::ImageFormat::kPng;
   if (o.format == "exr") c.format = btfgmm::ImageFormat::kExr;

@@ -147,8 +147,9 @@ void run_method_fit(const FitArguments& o) {
   check_fit_arguments(o, btfgmm::FitRoute::kNew);  // before any work
   check_output_file(o.out, o.overwrite);
   const auto t0 = Clock::now();
-  auto src = std::make_shared<const btfgmm::BtfSource>(btfgmm::BtfSource::open(o.input));
-  const btfgmm::Tile tile = o.tile.empty() ? btfgmm::Tile{} : tile_option(*src, o.tile, o.quiet);
+  btfgmm::BtfSource data = btfgmm::BtfSource::open(o.input);
+  const btfgmm::Tile tile = o.tile.empty() ? btfgmm::Tile{} : tile_option(data, o.tile, o.quiet);
+  auto src = std::make_shared<const btfgmm::BtfSource>(std::move(data));
   // A method whose declarations take a checkpoint (the neural BTF's) saves its state when
   // stopped: to --checkpoint, else MODEL.ckpt, as the mixture's fit does.
   const bool saves_state =

@@ -21,7 +21,7 @@ struct RangeMapArguments {
 
 void run_rangemap(const RangeMapArguments& o) {
   output_image_format(o.out);  // a bad name fails before any work
-  const BtfSource src = BtfSource::open(o.input);
+  BtfSource src = BtfSource::open(o.input);
   const Btf btf = src.load(tile_option(src, o.tile, false));
   RangeMapSettings s;
   s.max_light_theta_deg = o.max_light_theta;

@@ -46,7 +46,7 @@ btfgmm::FigureCaption command_line_caption(btfgmm::FigureCaption c) {
 // The data a --tile asks for, or `fallback` when none is given.
 btfgmm::Btf load_data(const std::string& path, const std::string& tile,
                       const btfgmm::Tile& fallback, bool quiet) {
-  const btfgmm::BtfSource src = btfgmm::BtfSource::open(path);
+  btfgmm::BtfSource src = btfgmm::BtfSource::open(path);
   const btfgmm::Tile t = tile.empty() ? fallback : tile_option(src, tile, quiet);
   return src.load(t);
 }
@@ -55,11 +55,14 @@ btfgmm::Btf load_data(const std::string& path, const std::string& tile,
 // data the model records (its own tile, read for that where --tile asks for another).
 btfgmm::Btf load_compared_data(const btfgmm::Representation& model, const RenderArguments& o,
                                btfgmm::DataMatch& match) {
-  const btfgmm::BtfSource src = btfgmm::BtfSource::open(o.compare);
-  const btfgmm::BtfInfo& info = src.info();
+  const btfgmm::BtfSource given = btfgmm::BtfSource::open(o.compare);
+  // A model of a made tile is checked against that tile made again from the data.
+  const btfgmm::BtfSource fitted = btfgmm::fitted_source(given, model.provenance());
+  const btfgmm::BtfInfo& info = fitted.info();
   const btfgmm::Tile own = model.frame().origin;
-  const btfgmm::Tile t = o.tile.empty() ? own : tile_option(src, o.tile, o.quiet);
-  btfgmm::Btf data = src.load(t);
+  btfgmm::BtfSource shown = o.tile.empty() ? fitted : given;
+  const btfgmm::Tile t = o.tile.empty() ? own : tile_option(shown, o.tile, o.quiet);
+  btfgmm::Btf data = shown.load(t);
   const bool quiet = o.quiet || o.json;
   if (own.x + own.width > info.width || own.y + own.height > info.height) {
     match = enforce_data_check(
@@ -71,9 +74,10 @@ btfgmm::Btf load_compared_data(const btfgmm::Representation& model, const Render
         o.force, quiet, "render");
     return data;
   }
-  const btfgmm::DataSource source{o.compare, info.width, info.height};
+  const btfgmm::DataSource source{o.compare, given.info().width, given.info().height};
+  const bool same = o.tile.empty() || (t == own && !shown.pixel_map() && !fitted.pixel_map());
   match = enforce_data_check(
-      btfgmm::check_fitted_data(model, o.input, t == own ? data : src.load(own), source), o.force,
+      btfgmm::check_fitted_data(model, o.input, same ? data : fitted.load(own), source), o.force,
       quiet, "render");
   return data;
 }

@@ -256,7 +256,7 @@ void run_sweep_command(const SweepArguments& o) {
   SweepRequest r = sweep_request(o);
   check_output_folder(o.out, o.overwrite);
   const auto t0 = Clock::now();
-  const BtfSource src = BtfSource::open(o.btf);
+  BtfSource src = BtfSource::open(o.btf);
   const Btf tile = src.load(tile_option(src, o.tile, o.quiet));
   if (!o.quiet)
     fmt::print(stderr, "loaded {}x{} pixels at ({}, {}) x {} lights x {} views in {}\n",

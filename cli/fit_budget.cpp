@@ -99,7 +99,7 @@ void run_budget_fit(const FitArguments& o) {
     throw Error(Error::Kind::kArgument, "fit --budget needs an input BTF and -o MODEL");
   check_output_file(o.out, o.overwrite);
   const auto t0 = Clock::now();
-  const BtfSource src = BtfSource::open(o.input);
+  BtfSource src = BtfSource::open(o.input);
   const Btf tile = src.load(tile_option(src, o.tile, o.quiet));
   r.budget = budget_bytes(o, tile);
   if (r.budget == 0)

@@ -95,9 +95,9 @@ btfgmm::FitRequest fit_request(const FitArguments& o) {
 // --tile X,Y,W,H or auto:WxH: the data is opened here for the search, and the fit reads it.
 void choose_fit_tile(btfgmm::FitRequest& r, const std::string& tile, bool quiet) {
   if (r.resume || tile.empty()) return;  // a resume fits the checkpoint's tile
-  auto src = std::make_shared<const btfgmm::BtfSource>(btfgmm::BtfSource::open(r.input));
-  r.tile = tile_option(*src, tile, quiet);
-  r.source = std::move(src);
+  btfgmm::BtfSource src = btfgmm::BtfSource::open(r.input);
+  r.tile = tile_option(src, tile, quiet);
+  r.source = std::make_shared<const btfgmm::BtfSource>(std::move(src));
 }
 
 // Where this run of a fit starts: after `iteration` iterations (0, or those of the fit it

@@ -1,5 +1,6 @@
-// The --tile option of fit and render: the library parses it and, for "auto:WxH", searches
-// the most seamless tile (btfgmm/measure/tile_option.hpp); the command reports the search.
+// The --tile option of fit and render: the library parses it and, for "auto:WxH", makes a
+// seamless tile (or searches the crop that repeats best, btfgmm/measure/tile_option.hpp); the
+// command reports which.
 #pragma once
 
 #include <fmt/format.h>
@@ -21,12 +22,24 @@ inline void print_tile_search(const btfgmm::TileSearchResult& r, double seconds)
              r.seam.top_bottom, r.candidates, r.images, human_seconds(seconds));
 }
 
-// The tile a --tile value asks for (empty: the whole image). For auto:, the search's choice
-// and its seam error are reported on stderr unless `quiet`.
-inline btfgmm::Tile tile_option(const btfgmm::BtfSource& src, const std::string& text, bool quiet) {
+// The made tile, its cut's cost against the material's own steps, on stderr.
+inline void print_tile_cut(const btfgmm::SeamlessTile& t, double seconds) {
+  fmt::print(stderr,
+             "tile: {}, its cuts {:.2f} levels RMS apart against {:.2f} between neighbouring "
+             "pixels, on {} images in {}\n",
+             t.describe(), t.cost.cut_levels, t.cost.neighbour_levels, t.images,
+             human_seconds(seconds));
+}
+
+// The tile a --tile value asks for (empty: the whole image). For auto:, `src` becomes the
+// made tile where one is cut (its whole image the tile), and the cut or the search's choice
+// is reported on stderr unless `quiet`.
+inline btfgmm::Tile tile_option(btfgmm::BtfSource& src, const std::string& text, bool quiet) {
   const auto t0 = Clock::now();
-  const btfgmm::TileChoice choice = btfgmm::choose_tile(src, text, "--tile");
+  btfgmm::TileChoice choice = btfgmm::choose_tile(src, text, "--tile");
   if (choice.search && !quiet) print_tile_search(*choice.search, seconds_since(t0));
+  if (choice.cut && !quiet) print_tile_cut(*choice.cut, seconds_since(t0));
+  src = std::move(choice.source);
   return choice.tile;
 }
 

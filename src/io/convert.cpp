@@ -56,6 +56,8 @@ std::string conversion_note(const BtfInfo& info, const Tile& t, ImageFormat f, d
       "source: {} ({})\ntile: x={} y={} {}x{} of {}x{}\nimages: {} lights x {} views\nformat: {}\n",
       info.path.string(), to_string(info.layout), t.x, t.y, t.width, t.height, info.width,
       info.height, info.lights.size(), info.views.size(), to_string(f));
+  for (const auto& [name, value] : info.details)
+    if (name == "made image") note += fmt::format("made: {}\n", value);
   if (f == ImageFormat::kExr) return note + "values: linear, as decoded (32-bit float)\n";
   if (info.format == SampleFormat::kHdr)
     return note + fmt::format(

@@ -478,6 +478,7 @@ Btf BtfSource::load(const Tile& tile) const {
       fmt::format("give a smaller tile (the option {}: X,Y,W,H)", option_name("tile")));
   Btf btf(info.lights, info.views, t.width, t.height, info.format);
   btf.set_origin(t);
+  if (map_) btf.set_made_from(map_->description);
   const std::size_t nv = info.views.size();
   read_tiles(t, 0, images, [&](std::size_t i, std::span<const float> rgb) {
     std::copy(rgb.begin(), rgb.end(), btf.image(i / nv, i % nv));
@@ -487,6 +488,7 @@ Btf BtfSource::load(const Tile& tile) const {
 
 void BtfSource::read_tiles(const Tile& tile, std::size_t first, std::size_t last,
                            const TileSink& take) const {
+  if (map_) return read_mapped_tiles(tile, first, last, take);
   if (ubo_) return read_ubo_tiles(tile, first, last, take);
   const BtfInfo& info = info_;
   const Tile t = tile_inside(info, tile);

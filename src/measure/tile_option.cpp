@@ -38,12 +38,37 @@ TileOption parse_tile_option(const std::string& text, const std::string& option)
   return t;
 }
 
+bool can_cut_seamless_tile(const BtfInfo& info, int width, int height) {
+  return width >= 4 && height >= 4 && info.width >= width + 2 && info.height >= height + 2;
+}
+
 TileChoice choose_tile(const BtfSource& source, const std::string& text,
                        const std::string& option) {
   const TileOption t = parse_tile_option(text, option);
-  if (!t.search) return {t.tile, std::nullopt};
-  const TileSearchResult r = find_seamless_tile(source, *t.search);
-  return {r.tile, r};
+  if (!t.search) return {t.tile, std::nullopt, std::nullopt, source};
+  const TileSearchConfig& s = *t.search;
+  TileChoice c{{}, std::nullopt, std::nullopt, source};
+  int w = s.max_width, h = s.max_height;
+  if (s.min_width != s.max_width || s.min_height != s.max_height ||
+      !can_cut_seamless_tile(source.info(), w, h)) {
+    c.search = find_seamless_tile(source, s);
+    c.tile = c.search->tile;
+    w = c.tile.width, h = c.tile.height;
+  }
+  if (!can_cut_seamless_tile(source.info(), w, h)) return c;
+  SeamlessTileConfig config;
+  config.width = w;
+  config.height = h;
+  c.cut = cut_seamless_tile(source, config);
+  c.source = seamless_tile_source(source, *c.cut);
+  c.tile = {};
+  return c;
+}
+
+BtfSource fitted_source(const BtfSource& source, const Provenance& provenance) {
+  for (const auto& [name, value] : provenance.fit.settings)
+    if (name == kTileSetting) return seamless_tile_source(source, made_tile_again(source, value));
+  return source;
 }
 
 }  // namespace btfgmm

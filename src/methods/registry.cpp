@@ -441,6 +441,7 @@ std::unique_ptr<Representation> fit_and_record(const MethodInfo& method, const B
   p.data = data;
   p.fit.settings = settings_record(method, s);
   p.fit.settings.emplace_back("size", r->size_text());
+  if (!tile.made_from().empty()) p.fit.settings.emplace_back(kTileSetting, tile.made_from());
   for (const auto& [name, value] : r->provenance().fit.settings)
     if (name == kStoppedSetting || (name == kDeviceSetting && value != "cpu"))
       p.fit.settings.emplace_back(name, value);

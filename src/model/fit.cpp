@@ -107,6 +107,8 @@ std::vector<std::pair<std::string, std::string>> settings_record(const FitReques
   }
   if (r.config.refinement_epochs > 0)  // --refine-epochs, for --continue alike
     s.emplace_back("refine epochs", fmt::to_string(r.config.refinement_epochs));
+  if (r.source && r.source->pixel_map())  // a made tile (a seamless cut), not a crop
+    s.emplace_back(kTileSetting, r.source->pixel_map()->description);
   return s;
 }
 

@@ -50,6 +50,11 @@ class Btf {
   // is the whole image.
   const Tile& origin() const { return origin_; }
   void set_origin(const Tile& t) { origin_ = t; }
+  // What made the images when they are not a crop of the source's as on disk (a seamless tile
+  // cut from a larger region, btfgmm/measure/seamless_tile.hpp): its description, which a
+  // model's provenance records as the setting "tile"; empty for a crop.
+  const std::string& made_from() const { return made_from_; }
+  void set_made_from(std::string what) { made_from_ = std::move(what); }
 
   std::size_t image_count() const { return lights_.size() * views_.size(); }
   // Images are ordered light-major: index = light * views().size() + view (the Bonn order).
@@ -80,6 +85,7 @@ class Btf {
   int width_ = 0, height_ = 0;
   SampleFormat format_ = SampleFormat::kLdr8;
   Tile origin_;
+  std::string made_from_;
   std::vector<float> data_;
 };
 

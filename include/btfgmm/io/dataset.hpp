@@ -56,6 +56,16 @@ struct BtfInfo {
 
 class UboBtf;
 
+// An image made of another's pixels (a seamless tile cut from a larger region,
+// btfgmm/measure/seamless_tile.hpp): pixel (x, y) of every image is the pixel
+// (region.x + dx, region.y + dy) of the source image, where dx, dy = source[y * width + x].
+struct PixelMap {
+  int width = 0, height = 0;
+  Tile region;
+  std::vector<std::pair<std::uint16_t, std::uint16_t>> source;  // (dx, dy), row-major
+  std::string description;  // what the map is, for messages and provenance
+};
+
 class BtfSource {
  public:
   // Discover the images at `path` (a folder, a .zip, or a Bonn .btf file), check that every (light,
@@ -81,7 +91,17 @@ class BtfSource {
   void read_tiles(const Tile& tile, std::size_t first, std::size_t last,
                   const TileSink& take) const;
 
+  // This data set with each image made by `map` (its region read, one per thread at a time):
+  // its images are map.width x map.height; info().details names the map's description.
+  // Throws Error(kArgument) if the region is not inside the image or a pixel lies outside it.
+  BtfSource remapped(PixelMap map) const;
+  // The map of a remapped source; null for one read as it is on disk.
+  const PixelMap* pixel_map() const { return map_.get(); }
+
  private:
+  void read_mapped_tiles(const Tile& tile, std::size_t first, std::size_t last,
+                         const TileSink& take) const;
+
   static BtfSource open_ubo(const std::filesystem::path& path);  // io/dataset_ubo.cpp
   void read_ubo_tiles(const Tile& tile, std::size_t first, std::size_t last,
                       const TileSink& take) const;
@@ -89,6 +109,8 @@ class BtfSource {
   BtfInfo info_;
   std::vector<std::string> names_;     // light-major, as Btf::image_index
   std::shared_ptr<const UboBtf> ubo_;  // a .btf file's factors, else null
+  std::shared_ptr<const BtfSource> original_;  // a remapped source's data as on disk
+  std::shared_ptr<const PixelMap> map_;
 };
 
 }  // namespace btfgmm

@@ -56,6 +56,10 @@ constexpr std::string_view kBoundInTime =
 // settings give uninterrupted.
 constexpr std::string_view kStoppedSetting = "stopped by the user";
 
+// The setting naming the made tile a model was fitted to (a seamless tile cut from the data,
+// btfgmm/measure/seamless_tile.hpp): SeamlessTile::describe(). A model of a crop has none.
+constexpr std::string_view kTileSetting = "tile";
+
 // The setting naming the GPU a method's own fit ran on (the neural BTF's, docs/GPU.md): such a
 // model is the CPU's to float rounding, not bit for bit. A fit on the CPU does not record it.
 constexpr std::string_view kDeviceSetting = "device";

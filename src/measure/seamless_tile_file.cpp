@@ -1,0 +1,33 @@
+// The made tile's pixel map as JSON (include/btfgmm/measure/seamless_tile.hpp).
+#include <nlohmann/json.hpp>
+
+#include "btfgmm/measure/seamless_tile.hpp"
+
+namespace btfgmm {
+
+std::string seamless_tile_json(const SeamlessTile& tile, const BtfInfo& source) {
+  const PixelMap m = tile.pixel_map(tile.describe());
+  nlohmann::json pixels = nlohmann::json::array();
+  for (const auto& [dx, dy] : m.source)
+    pixels.push_back({m.region.x + int(dx), m.region.y + int(dy)});
+  const nlohmann::json j = {
+      {"what", "a seamless tile cut from a larger region of each image along the cuts of least "
+               "error; pixel (x, y) of every tile image is the source image's pixel "
+               "pixels[y * width + x]"},
+      {"source", source.path.string()},
+      {"source_size", {source.width, source.height}},
+      {"width", tile.width},
+      {"height", tile.height},
+      {"region", {tile.region.x, tile.region.y, tile.region.width, tile.region.height}},
+      {"overlap", {tile.overlap_x, tile.overlap_y}},
+      {"column_cut", tile.column_cut},
+      {"row_cut", tile.row_cut},
+      {"cut_levels_rms", tile.cost.cut_levels},
+      {"neighbour_levels_rms", tile.cost.neighbour_levels},
+      {"images", tile.images},
+      {"positions", tile.positions},
+      {"pixels", pixels}};
+  return j.dump() + "\n";
+}
+
+}  // namespace btfgmm
