@@ -15,7 +15,6 @@
 namespace btfgmm::cli {
 namespace {
 
-
 // What a seam error means for a tile repeated on a surface, in words.
 const char* seam_verdict(double error) {
   if (error < 0.5) return "the seam is hard to see";
@@ -102,12 +101,13 @@ void register_tile_command(CLI::App& app, Commands& commands) {
       ->check(CLI::Range(std::size_t(1), std::size_t(1000)))
       ->capture_default_str();
   t->add_flag("--json", to->json, "The result as one JSON object");
-  t->add_option("-o,--output", to->out,
-                "Make a seamless tile of --size (a range: the crop search's best size) and "
-                "write it to this folder in the UTIA layout, with seamless-tile.json naming "
-                "each pixel's source. It is cut from a region of the tile plus an overlap, one "
-                "cut for all images, along the seams of least error. Time: one read of every "
-                "image; memory: about 64 MB of images and two cost maps of the image's size");
+  t->add_option(
+      "-o,--output", to->out,
+      "Make a seamless tile of --size (a range: the crop search's best size) and "
+      "write it to this folder in the UTIA layout, with seamless-tile.json naming "
+      "each pixel's source. It is cut from a region of the tile plus an overlap, one "
+      "cut for all images, along the seams of least error. Time: one read of every "
+      "image; memory: about 64 MB of images and four cost maps of the image's size in doubles");
   t->add_option("--overlap", to->overlap,
                 "With -o: the columns and rows the cuts may wander through (2 to half the "
                 "tile); 0: as many as the images allow, up to half the tile")

@@ -8,6 +8,7 @@
 #include <omp.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <limits>
@@ -21,8 +22,13 @@ namespace btfgmm {
 namespace {
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
+// What a level of the wrap's step above the data's mean step costs against a level of a cut's
+// mismatch (wrap_excess, ClosedCut).
+constexpr double kWrapWeight = 1.0;
 
-double sq(double v) { return v * v; }
+double sq(double v) {
+  return v * v;
+}
 
 // The overlap of a tile `size` long in an image `full` long: as asked, or as many as fit up to
 // half the tile.
@@ -53,45 +59,83 @@ void check_size(const BtfInfo& info, const SeamlessTileConfig& c, int ox, int oy
                             std::max(ox, oy), c.width, c.height, std::min(c.width, c.height) / 2));
 }
 
+// The width of the feather across a cut through an overlap `n` wide: kFeather pixels, or
+// fewer (even, down to 0: a hard cut) where the overlap leaves less room beside the cut.
+constexpr int kFeather = 4;
+int feather_for(int n) {
+  return std::clamp((n - 2) / 2 * 2, 0, kFeather);
+}
+
+// The weight of strip A (the tile's own continuation) at overlap position j of a cut at p
+// feathered over f pixels: 0 (all B) up to p - f / 2, 1 (all A) from p + f / 2 on, linear
+// between (Burt and Adelson's blend across a seam, narrowed to the cut).
+float weight_of_a(int j, int p, int f) {
+  if (f == 0) return j < p ? 0.0f : 1.0f;
+  return std::clamp(0.5f + (float(j - p) + 0.5f) / float(f), 0.0f, 1.0f);
+}
+
 // The sums over images and channels of (I(x + W, y) - I(x, y))^2 (`right`, x < w - W) and of
 // (I(x, y + H) - I(x, y))^2 (`below`, y < h - H), and of the squared steps between
-// neighbouring pixels. Each row is summed by one thread over the images in their order, so
-// the sums do not depend on the number of threads.
+// neighbouring pixels (`step_right`, x < w - 1, and `step_below`, y < h - 1). Each row is
+// summed by one thread over the images in their order, so the sums do not depend on the
+// number of threads.
 struct MismatchSums {
   int w = 0, h = 0, W = 0, H = 0;
-  std::vector<double> right, below;
-  double neighbour = 0.0;
-  std::size_t neighbour_pairs = 0, images = 0;
+  std::vector<double> right, below, step_right, step_below;
+  std::size_t images = 0;
 
   MismatchSums(int w_, int h_, int W_, int H_)
-      : w(w_), h(h_), W(W_), H(H_),
-        right(std::size_t(w - W) * std::size_t(h), 0.0),
-        below(std::size_t(w) * std::size_t(h - H), 0.0) {}
+      : w(w_),
+        h(h_),
+        W(W_),
+        H(H_),
+        right(std::size_t(w) * std::size_t(h), 0.0),
+        below(right),
+        step_right(right),
+        step_below(right) {}
 
-  double at_right(int x, int y) const { return right[std::size_t(y) * std::size_t(w - W) + x]; }
-  double at_below(int x, int y) const { return below[std::size_t(y) * std::size_t(w) + x]; }
+  std::size_t index(int x, int y) const { return std::size_t(y) * std::size_t(w) + x; }
+  double at_right(int x, int y) const { return right[index(x, y)]; }
+  double at_below(int x, int y) const { return below[index(x, y)]; }
 
   void add(const std::vector<std::vector<float>>& batch, std::size_t count) {
-    std::vector<double> steps(std::size_t(h), 0.0);
 #pragma omp parallel for schedule(static)
     for (int y = 0; y < h; ++y)
-      for (std::size_t k = 0; k < count; ++k) add_row(batch[k].data(), y, steps[std::size_t(y)]);
-    for (double s : steps) neighbour += s;
-    neighbour_pairs += count * 3 * (std::size_t(w - 1) * h + std::size_t(h - 1) * w);
+      for (std::size_t k = 0; k < count; ++k) add_row(batch[k].data(), y);
     images += count;
   }
 
+  // The RMS step between neighbouring pixels, per image and channel: across columns (x), down
+  // rows (y), and of both.
+  double neighbour_rms_x() const {
+    return rms(step_right, std::size_t(w - 1) * h);
+  }
+  double neighbour_rms_y() const {
+    return rms(step_below, std::size_t(h - 1) * w);
+  }
+  double neighbour_rms() const {
+    const double nx = double(w - 1) * h, ny = double(h - 1) * w;
+    return std::sqrt((sq(neighbour_rms_x()) * nx + sq(neighbour_rms_y()) * ny) / (nx + ny));
+  }
+
  private:
-  void add_row(const float* img, int y, double& steps) {
+  double rms(const std::vector<double>& sums, std::size_t pairs) const {
+    double total = 0.0;
+    for (double v : sums) total += v;
+    return std::sqrt(total / double(std::max<std::size_t>(pairs * 3 * images, 1)));
+  }
+
+  void add_row(const float* img, int y) {
     auto v = [&](int x, int yy, int c) {
       return double(img[(std::size_t(yy) * std::size_t(w) + x) * 3 + c]);
     };
     for (int x = 0; x < w; ++x)
       for (int c = 0; c < 3; ++c) {
-        if (x + W < w) right[std::size_t(y) * std::size_t(w - W) + x] += sq(v(x + W, y, c) - v(x, y, c));
-        if (y + H < h) below[std::size_t(y) * std::size_t(w) + x] += sq(v(x, y + H, c) - v(x, y, c));
-        if (x + 1 < w) steps += sq(v(x + 1, y, c) - v(x, y, c));
-        if (y + 1 < h) steps += sq(v(x, y + 1, c) - v(x, y, c));
+        const double here = v(x, y, c);
+        if (x + W < w) right[index(x, y)] += sq(v(x + W, y, c) - here);
+        if (y + H < h) below[index(x, y)] += sq(v(x, y + H, c) - here);
+        if (x + 1 < w) step_right[index(x, y)] += sq(v(x + 1, y, c) - here);
+        if (y + 1 < h) step_below[index(x, y)] += sq(v(x, y + 1, c) - here);
       }
   }
 };
@@ -107,9 +151,9 @@ MismatchSums sum_mismatches(const BtfSource& source, const SeamlessTileConfig& c
   std::vector<std::vector<float>> images(std::min(batch, n));
   for (std::size_t first = 0; first < n; first += batch) {
     if (c.stopped && c.stopped())
-      throw Error(Error::Kind::kArgument,
-                  fmt::format("stopped: the seamless tile's cut had read {} of {} images",
-                              first, n));
+      throw Error(
+          Error::Kind::kArgument,
+          fmt::format("stopped: the seamless tile's cut had read {} of {} images", first, n));
     const std::size_t last = std::min(n, first + batch);
     source.read_tiles({}, first, last, [&](std::size_t i, std::span<const float> rgb) {
       images[i - first].assign(rgb.begin(), rgb.end());
@@ -131,7 +175,8 @@ struct ClosedCut {
   std::size_t edges = 0;
 };
 
-ClosedCut cheapest_closed_cut(const std::vector<double>& a, int length, int n) {
+ClosedCut cheapest_closed_cut(const std::vector<double>& a, int length, int n, int margin) {
+  const int lo = 1 + margin, hi = n - 1 - margin;  // room for the feather on both sides
   const auto A = [&](int r, int j) { return a[std::size_t(r) * std::size_t(n) + std::size_t(j)]; };
   const auto side = [&](int r, int p) { return A(r, p - 1) + A(r, p); };
   const auto move = [&](int r, int p, int q) {
@@ -140,14 +185,14 @@ ClosedCut cheapest_closed_cut(const std::vector<double>& a, int length, int n) {
   ClosedCut best;
   std::vector<double> cost(static_cast<std::size_t>(n)), next(cost);
   std::vector<int> from(std::size_t(length) * std::size_t(n), 0);
-  for (int s = 1; s < n; ++s) {
+  for (int s = lo; s <= hi; ++s) {
     std::fill(cost.begin(), cost.end(), kInf);
     cost[std::size_t(s)] = side(0, s);
     for (int r = 1; r < length; ++r) {
-      for (int p = 1; p < n; ++p) {
+      for (int p = lo; p <= hi; ++p) {
         double low = kInf;
         int arg = p;
-        for (int q = std::max(1, p - 1); q <= std::min(n - 1, p + 1); ++q) {
+        for (int q = std::max(lo, p - 1); q <= std::min(hi, p + 1); ++q) {
           const double v = cost[std::size_t(q)] + move(r - 1, q, p);
           if (v < low) low = v, arg = q;
         }
@@ -156,7 +201,7 @@ ClosedCut cheapest_closed_cut(const std::vector<double>& a, int length, int n) {
       }
       std::swap(cost, next);
     }
-    for (int p = std::max(1, s - 1); p <= std::min(n - 1, s + 1); ++p) {
+    for (int p = std::max(lo, s - 1); p <= std::min(hi, s + 1); ++p) {
       const double total = cost[std::size_t(p)] + move(length - 1, p, s);
       if (total >= best.cost) continue;
       best.cost = total;
@@ -177,21 +222,40 @@ ClosedCut cheapest_closed_cut(const std::vector<double>& a, int length, int n) {
 // pixels the columns' cut chose.
 struct RegionCuts {
   ClosedCut columns, rows;
-  double cost() const { return columns.cost + rows.cost; }
+  double wrap = 0.0;  // wrap_excess
+  double cost() const { return columns.cost + rows.cost + wrap; }
 };
 
-RegionCuts cut_region(const MismatchSums& m, int x0, int y0, int ox, int oy, double scale) {
+// How much the wrap's steps (the tile's last column to its first, the data's step from the
+// region's column W - 1 to W, and the same for the rows) exceed the data's mean step across
+// columns `mean_x` and down rows `mean_y`, summed over the wrap's edges, each RMS over the
+// images: a wrap placed where the texture changes fast (at a wale's edge) shows as a line of
+// large steps although no cut is near it.
+double wrap_excess(const MismatchSums& m, int x0, int y0, int ox, int oy, double scale,
+                   double mean_x, double mean_y) {
+  double excess = 0.0;
+  for (int r = oy; r < m.H + oy; ++r)
+    excess += std::sqrt(m.step_right[m.index(x0 + m.W - 1, y0 + r)]) * scale - mean_x;
+  for (int c = ox; c < m.W + ox; ++c)
+    excess += std::sqrt(m.step_below[m.index(x0 + c, y0 + m.H - 1)]) * scale - mean_y;
+  return excess;
+}
+
+RegionCuts cut_region(const MismatchSums& m, int x0, int y0, int ox, int oy, double scale,
+                      double mean_x, double mean_y) {
   const int W = m.W, H = m.H;
   std::vector<double> a(std::size_t(H) * std::size_t(ox));
   for (int r = 0; r < H; ++r)
     for (int j = 0; j < ox; ++j) {
       double e = m.at_right(x0 + j, y0 + r);
-      if (r < oy) e = std::sqrt(e) + std::sqrt(m.at_right(x0 + j, y0 + r + H));
-      else e = std::sqrt(e);
+      if (r < oy)
+        e = std::sqrt(e) + std::sqrt(m.at_right(x0 + j, y0 + r + H));
+      else
+        e = std::sqrt(e);
       a[std::size_t(r) * std::size_t(ox) + std::size_t(j)] = e * scale;
     }
   RegionCuts cuts;
-  cuts.columns = cheapest_closed_cut(a, H, ox);
+  cuts.columns = cheapest_closed_cut(a, H, ox, feather_for(ox) / 2);
   a.assign(std::size_t(W) * std::size_t(oy), 0.0);
   for (int c = 0; c < W; ++c)
     for (int i = 0; i < oy; ++i) {
@@ -199,7 +263,8 @@ RegionCuts cut_region(const MismatchSums& m, int x0, int y0, int ox, int oy, dou
       a[std::size_t(c) * std::size_t(oy) + std::size_t(i)] =
           std::sqrt(m.at_below(x0 + c + (from_b ? W : 0), y0 + i)) * scale;
     }
-  cuts.rows = cheapest_closed_cut(a, W, oy);
+  cuts.rows = cheapest_closed_cut(a, W, oy, feather_for(oy) / 2);
+  cuts.wrap = kWrapWeight * wrap_excess(m, x0, y0, ox, oy, scale, mean_x, mean_y);
   return cuts;
 }
 
@@ -221,11 +286,12 @@ SeamlessTile cut_seamless_tile(const BtfSource& source, const SeamlessTileConfig
   const int ox = overlap_for(c.overlap_x, c.width, info.width);
   const int oy = overlap_for(c.overlap_y, c.height, info.height);
   check_size(info, c, ox, oy);
-  limits::check_memory(double(info.width) * info.height * 16.0 + (64 << 20),
+  limits::check_memory(double(info.width) * info.height * 32.0 + (64 << 20),
                        fmt::format("the seamless tile's cost maps of {}", info.path.string()),
                        "give a smaller data set");
   const MismatchSums sums = sum_mismatches(source, c);
   const double scale = 1.0 / std::sqrt(3.0 * double(std::max<std::size_t>(sums.images, 1)));
+  const double mean_x = sums.neighbour_rms_x(), mean_y = sums.neighbour_rms_y();
   // The DP's work per position, bounded so that the search takes seconds at most.
   const double per_position = 3.0 * (double(c.height) * ox * ox + double(c.width) * oy * oy);
   const std::size_t most = std::clamp<std::size_t>(std::size_t(2e9 / per_position), 1,
@@ -236,29 +302,32 @@ SeamlessTile cut_seamless_tile(const BtfSource& source, const SeamlessTileConfig
                 fmt::format("{}: a {}x{} region at {},{} is not inside its {}x{} images",
                             info.path.string(), c.width + ox, c.height + oy, c.at->first,
                             c.at->second, info.width, info.height));
-  const auto positions = c.at ? std::vector<std::pair<int, int>>{*c.at}
-                              : region_positions(nx, ny, most);
+  const auto positions =
+      c.at ? std::vector<std::pair<int, int>>{*c.at} : region_positions(nx, ny, most);
   std::vector<RegionCuts> cuts(positions.size());
 #pragma omp parallel for schedule(dynamic, 1)
   for (std::ptrdiff_t k = 0; k < std::ptrdiff_t(positions.size()); ++k)
-    cuts[std::size_t(k)] = cut_region(sums, positions[std::size_t(k)].first,
-                                      positions[std::size_t(k)].second, ox, oy, scale);
+    cuts[std::size_t(k)] =
+        cut_region(sums, positions[std::size_t(k)].first, positions[std::size_t(k)].second, ox, oy,
+                   scale, mean_x, mean_y);
   std::size_t best = 0;
   for (std::size_t k = 1; k < cuts.size(); ++k)
     if (cuts[k].cost() < cuts[best].cost()) best = k;
   SeamlessTile t;
   t.width = c.width;
   t.height = c.height;
-  t.region = {.x = positions[best].first, .y = positions[best].second,
-              .width = c.width + ox, .height = c.height + oy};
+  t.region = {.x = positions[best].first,
+              .y = positions[best].second,
+              .width = c.width + ox,
+              .height = c.height + oy};
   t.overlap_x = ox;
   t.overlap_y = oy;
   t.column_cut = cuts[best].columns.path;
   t.row_cut = cuts[best].rows.path;
   t.cost.edges = cuts[best].columns.edges + cuts[best].rows.edges;
-  t.cost.cut_levels = cuts[best].cost() / (2.0 * double(t.cost.edges));
-  t.cost.neighbour_levels =
-      std::sqrt(sums.neighbour / double(std::max<std::size_t>(sums.neighbour_pairs, 1)));
+  t.cost.cut_levels =
+      (cuts[best].columns.cost + cuts[best].rows.cost) / (2.0 * double(t.cost.edges));
+  t.cost.neighbour_levels = sums.neighbour_rms();
   t.positions = positions.size();
   t.images = sums.images;
   return t;
@@ -271,12 +340,19 @@ PixelMap SeamlessTile::pixel_map(const std::string& description) const {
   m.region = region;
   m.description = description;
   m.source.reserve(std::size_t(width) * std::size_t(height));
+  const int fx = feather_for(overlap_x), fy = feather_for(overlap_y);
   for (int y = 0; y < height; ++y)
     for (int x = 0; x < width; ++x) {
-      const bool below = y < overlap_y && y < row_cut[std::size_t(x)];
-      const bool right = x < overlap_x && x < column_cut[std::size_t(y)];
-      m.source.emplace_back(std::uint16_t(x + (right ? width : 0)),
-                            std::uint16_t(y + (below ? height : 0)));
+      const float a = x < overlap_x ? weight_of_a(x, column_cut[std::size_t(y)], fx) : 1.0f;
+      const float b = y < overlap_y ? weight_of_a(y, row_cut[std::size_t(x)], fy) : 1.0f;
+      const auto u = std::uint16_t(x), v = std::uint16_t(y);
+      const auto uw = std::uint16_t(x + width), vh = std::uint16_t(y + height);
+      std::array<PixelTap, 4> taps{PixelTap{u, v, a * b}, PixelTap{uw, v, (1 - a) * b},
+                                   PixelTap{u, vh, a * (1 - b)},
+                                   PixelTap{uw, vh, (1 - a) * (1 - b)}};
+      for (PixelTap& tap : taps)
+        if (tap.weight == 0.0f) tap = {};  // unused: kept inside the region
+      m.source.push_back(taps);
     }
   return m;
 }

@@ -8,12 +8,19 @@ namespace btfgmm {
 std::string seamless_tile_json(const SeamlessTile& tile, const BtfInfo& source) {
   const PixelMap m = tile.pixel_map(tile.describe());
   nlohmann::json pixels = nlohmann::json::array();
-  for (const auto& [dx, dy] : m.source)
-    pixels.push_back({m.region.x + int(dx), m.region.y + int(dy)});
+  for (const auto& taps : m.source) {
+    nlohmann::json pixel = nlohmann::json::array();
+    for (const PixelTap& t : taps)
+      if (t.weight > 0.0f)
+        pixel.push_back({m.region.x + int(t.dx), m.region.y + int(t.dy), t.weight});
+    pixels.push_back(pixel);
+  }
   const nlohmann::json j = {
-      {"what", "a seamless tile cut from a larger region of each image along the cuts of least "
-               "error; pixel (x, y) of every tile image is the source image's pixel "
-               "pixels[y * width + x]"},
+      {"what",
+       "a seamless tile cut from a larger region of each image along the cuts of least "
+       "error, feathered over a few pixels across each cut; pixel (x, y) of every tile "
+       "image is the sum over pixels[y * width + x] of [X, Y, weight] of weight times "
+       "the source image's pixel (X, Y), rounded to a level for 8-bit data"},
       {"source", source.path.string()},
       {"source_size", {source.width, source.height}},
       {"width", tile.width},

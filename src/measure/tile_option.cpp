@@ -46,19 +46,14 @@ TileChoice choose_tile(const BtfSource& source, const std::string& text,
                        const std::string& option) {
   const TileOption t = parse_tile_option(text, option);
   if (!t.search) return {t.tile, std::nullopt, std::nullopt, source};
-  const TileSearchConfig& s = *t.search;
-  TileChoice c{{}, std::nullopt, std::nullopt, source};
-  int w = s.max_width, h = s.max_height;
-  if (s.min_width != s.max_width || s.min_height != s.max_height ||
-      !can_cut_seamless_tile(source.info(), w, h)) {
-    c.search = find_seamless_tile(source, s);
-    c.tile = c.search->tile;
-    w = c.tile.width, h = c.tile.height;
-  }
-  if (!can_cut_seamless_tile(source.info(), w, h)) return c;
+  TileChoice c{{}, find_seamless_tile(source, *t.search), std::nullopt, source};
+  c.tile = c.search->tile;
+  if (c.search->seam.total < kSeamlessCropError ||
+      !can_cut_seamless_tile(source.info(), c.tile.width, c.tile.height))
+    return c;
   SeamlessTileConfig config;
-  config.width = w;
-  config.height = h;
+  config.width = c.tile.width;
+  config.height = c.tile.height;
   c.cut = cut_seamless_tile(source, config);
   c.source = seamless_tile_source(source, *c.cut);
   c.tile = {};

@@ -14,6 +14,7 @@
 // view) pair must have exactly one image, all of one size and kind.
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <filesystem>
 #include <functional>
@@ -57,13 +58,18 @@ struct BtfInfo {
 class UboBtf;
 
 // An image made of another's pixels (a seamless tile cut from a larger region,
-// btfgmm/measure/seamless_tile.hpp): pixel (x, y) of every image is the pixel
-// (region.x + dx, region.y + dy) of the source image, where dx, dy = source[y * width + x].
+// btfgmm/measure/seamless_tile.hpp): pixel (x, y) of every image is the weighted sum over the
+// taps of source[y * width + x] of the pixels (region.x + dx, region.y + dy) of the source
+// image (the weights sum to 1; unused taps weigh 0), rounded to a level for 8-bit data.
+struct PixelTap {
+  std::uint16_t dx = 0, dy = 0;
+  float weight = 0.0f;
+};
 struct PixelMap {
   int width = 0, height = 0;
   Tile region;
-  std::vector<std::pair<std::uint16_t, std::uint16_t>> source;  // (dx, dy), row-major
-  std::string description;  // what the map is, for messages and provenance
+  std::vector<std::array<PixelTap, 4>> source;  // row-major
+  std::string description;                      // what the map is, for messages and provenance
 };
 
 class BtfSource {
@@ -107,8 +113,8 @@ class BtfSource {
                       const TileSink& take) const;
 
   BtfInfo info_;
-  std::vector<std::string> names_;     // light-major, as Btf::image_index
-  std::shared_ptr<const UboBtf> ubo_;  // a .btf file's factors, else null
+  std::vector<std::string> names_;             // light-major, as Btf::image_index
+  std::shared_ptr<const UboBtf> ubo_;          // a .btf file's factors, else null
   std::shared_ptr<const BtfSource> original_;  // a remapped source's data as on disk
   std::shared_ptr<const PixelMap> map_;
 };

@@ -17,7 +17,9 @@
 // (Efros and Freeman, "Image quilting for texture synthesis and transfer", SIGGRAPH 2001),
 // is closed over the tile's height (p(H - 1) and p(0) are neighbours too when it repeats) and
 // found by dynamic programming from each start. The rows are cut the same way after the
-// columns. The region's position is the one whose two cuts cost least.
+// columns. The region's position is the one whose two cuts cost least, counting too how far
+// the wrap's own steps (a step of the data) exceed the data's mean step: the wrap goes where
+// the texture changes no faster than it does on average.
 #pragma once
 
 #include <cstddef>
@@ -59,21 +61,22 @@ struct SeamCutCost {
 // A made tile: where each of its pixels is taken from, and how its cuts were found.
 struct SeamlessTile {
   int width = 0, height = 0;
-  Tile region;                   // R in the source image
+  Tile region;  // R in the source image
   int overlap_x = 0, overlap_y = 0;
-  std::vector<int> column_cut;   // p(r), r < height: the first overlap column taken from A
-  std::vector<int> row_cut;      // q(c), c < width: the first overlap row taken from A
+  std::vector<int> column_cut;  // p(r), r < height: the first overlap column taken from A
+  std::vector<int> row_cut;     // q(c), c < width: the first overlap row taken from A
   SeamCutCost cost;
-  std::size_t positions = 0;     // region positions compared
-  std::size_t images = 0;        // images the cost was summed over
-  // The pixel map: for tile pixel (x, y), source pixel (x0 + dx, y0 + dy), dx, dy < region's.
+  std::size_t positions = 0;  // region positions compared
+  std::size_t images = 0;     // images the cost was summed over
+  // The pixel map: each tile pixel the blend of up to 4 pixels of the region, weighted across
+  // each cut over a feather of up to 4 pixels (a hard cut where the overlap is under 4 wide).
   PixelMap pixel_map(const std::string& description) const;
   // "seamless 32x32 tile cut from 12,3,48,48 (overlap 16x16)".
   std::string describe() const;
 };
 
 // Reads every image of `source` once, a batch at a time (memory: a batch of whole images,
-// at most about 64 MB, and two cost maps of the image's size in doubles). Throws
+// at most about 64 MB, and four cost maps of the image's size in doubles). Throws
 // Error(kArgument) for a size the image cannot hold with an overlap of at least 2, naming
 // the smallest image that would and the largest tile this one can give.
 SeamlessTile cut_seamless_tile(const BtfSource& source, const SeamlessTileConfig& config);

@@ -1,9 +1,9 @@
 // The --tile option of fit and render, parsed in one place: "X,Y,W,H" in pixels, or
 // "auto:WxH" for a seamless tile of that size (W and H each a number or a range, e.g.
-// auto:20-28x24): made by cutting (cut_seamless_tile, seamless_tile.hpp) where the images hold
-// the tile and an overlap of at least 2 in each direction, else the crop that repeats best
-// (find_seamless_tile, tile.hpp). With ranges, the crop search chooses the size first. Empty:
-// the whole image.
+// auto:20-28x24): the crop that repeats best (find_seamless_tile, tile.hpp), measured data
+// unchanged, where its seam differs less than neighbouring pixels do (kSeamlessCropError);
+// else one made by cutting (cut_seamless_tile, seamless_tile.hpp) at the crop's size, where the
+// images hold the tile and an overlap of at least 2 in each direction. Empty: the whole image.
 #pragma once
 
 #include <optional>
@@ -18,6 +18,9 @@
 
 namespace btfgmm {
 
+// The seam error (relative to neighbouring pixels, tile.hpp) below which "auto:" keeps the crop.
+inline constexpr double kSeamlessCropError = 1.0;
+
 struct TileOption {
   Tile tile;                               // "X,Y,W,H"; empty for "" and for "auto:"
   std::optional<TileSearchConfig> search;  // "auto:WxH": the sizes to search
@@ -29,7 +32,7 @@ TileOption parse_tile_option(const std::string& text,
 
 struct TileChoice {
   Tile tile;                               // of `source`; empty: the whole image
-  std::optional<TileSearchResult> search;  // for "auto:" with ranges or no room to cut: the crop
+  std::optional<TileSearchResult> search;  // for "auto:": the best crop
   std::optional<SeamlessTile> cut;         // for "auto:": the made tile, when it could be cut
   BtfSource source;                        // the data to read `tile` of: the made tile's, or
                                            // the source as given
