@@ -66,9 +66,9 @@ void register_convert_command(CLI::App& app, Commands& commands) {
       "layout as PNG or EXR. Memory: one image's tile per thread; for a .btf file also the "
       "tile's factors (components x tile pixels x 4 bytes per channel), never the whole images");
   c->add_option("data", o->data, "A BTF folder, Bonn .zip or Bonn .btf file")->required();
-  c->add_option("--tile", o->tile,
-                "X,Y,W,H: the pixels to write (default: the whole image); auto:WxH searches the "
-                "most seamless tile");
+  c->add_option(
+      "--tile", o->tile,
+      fmt::format("X,Y,W,H: the pixels to write (default: the whole image), or {}", kAutoTileHelp));
   c->add_option("--format", o->format,
                 "png (8-bit) or exr (linear float); default: exr for HDR data, png for 8-bit")
       ->check(CLI::IsMember({"png", "exr"}));

@@ -330,9 +330,9 @@ void register_fit_command(CLI::App& app, Commands& commands) {
   auto* f = app.add_subcommand(
       "fit", "Fit a model to a BTF tile: the Gaussian mixture (default) or another method");
   f->add_option("input", fit->input, "A BTF folder or Bonn .zip");
-  f->add_option("--tile", fit->tile,
-                "X,Y,W,H of the tile to fit, or auto:WxH for the most seamless tile of that size "
-                "(default: the whole image)");
+  f->add_option(
+      "--tile", fit->tile,
+      fmt::format("X,Y,W,H of the tile to fit, or {} (default: the whole image)", kAutoTileHelp));
   add_parameter_options(*f, btfgmm::FitRoute::kNew, *texts, method_help());
   add_budget_and_run_options(*f, *fit);
 

@@ -44,7 +44,8 @@ void register_rangemap_command(CLI::App& app, Commands& commands) {
   r->add_option("input", o->input, "BTF folder or Bonn .zip")->required();
   r->add_option("-o,--out", o->out, "range map: .exr (heights in pixels) or .png (scaled)")
       ->required();
-  r->add_option("--tile", o->tile, "x,y,w,h or auto:WxH (default: the whole image)");
+  r->add_option("--tile", o->tile,
+                fmt::format("X,Y,W,H, or {} (default: the whole image)", kAutoTileHelp));
   r->add_option("--max-light-theta", o->max_light_theta,
                 "leave out lights above this elevation, degrees")
       ->capture_default_str()

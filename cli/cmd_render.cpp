@@ -235,7 +235,7 @@ void register_render_command(CLI::App& app, Commands& commands) {
                 "The measured BTF to render next to the model (its tile: the model's own, or "
                 "--tile)");
   r->add_option("--tile", ro->tile,
-                "X,Y,W,H of the measured data to render, or auto:WxH for the most seamless tile");
+                fmt::format("X,Y,W,H of the measured data to render, or {}", kAutoTileHelp));
   r->add_option("--mesh", ro->scene.mesh,
                 "sphere, cylinder, cloth, plane, or a Wavefront .obj file")
       ->capture_default_str();

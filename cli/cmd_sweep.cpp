@@ -340,8 +340,7 @@ void register_sweep_command(CLI::App& app, Commands& commands) {
       "measure each model, and write a table, sweep.json and an HTML report with the "
       "rate-distortion curves and their Pareto front");
   c->add_option("btf", opt->btf, "A BTF folder or Bonn .zip")->required();
-  c->add_option("--tile", opt->tile,
-                "X,Y,W,H of the tile, or auto:WxH for the most seamless tile of that size")
+  c->add_option("--tile", opt->tile, fmt::format("X,Y,W,H of the tile, or {}", kAutoTileHelp))
       ->required();
   c->add_option("-o,--output", opt->out,
                 "The folder to write (index.html, its pictures, sweep.json; new or empty)")

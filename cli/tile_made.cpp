@@ -97,12 +97,14 @@ void print_report(const MadeTileReport& r, const TileArguments& o) {
       "  wrap: its step across the wrap is {:.2f} times the step between neighbouring pixels "
       "inside it (median over {} images; 90th percentile {:.2f}): {}\n"
       "  the best {}x{} crop ({},{}) wraps at {:.2f} times (90th percentile {:.2f}): {}\n"
-      "  cut: where the cut joins pixels from two places they differ by {:.2f} levels RMS, "
-      "against {:.2f} between neighbouring pixels of the data; the largest steps of the tile "
+      "  cut: where the cut joins pixels from two places they differ by {:.2f} levels RMS "
+      "(blended across it over a few pixels), against {:.2f} between neighbouring pixels of the "
+      "data; the largest steps of the tile "
       "repeated 2 x 2 (99th percentile) are {:.2f} times the data's own (above about 1.2 the "
       "cut would show as a line)\n"
       "wrote {} {} images to {} and seamless-tile.json (where each pixel came from) in {}\n"
-      "fit it with: btfgmm fit {} ... (or fit {} --tile auto:{}x{}, which cuts the same tile)\n",
+      "fit it with: btfgmm fit {} ... (fit {} --tile auto:{}x{} makes the same tile where no "
+      "crop repeats cleanly)\n",
       t.describe(), t.images, human_seconds(r.cut_seconds), r.made.median_ratio, r.made.images,
       r.made.p90_ratio, wrap_verdict(r.made.p90_ratio), c.width, c.height, c.x, c.y,
       r.crop.median_ratio, r.crop.p90_ratio, wrap_verdict(r.crop.p90_ratio), t.cost.cut_levels,

@@ -13,6 +13,11 @@
 
 namespace btfgmm::cli {
 
+// How every --tile option's help says what auto:WxH does.
+inline constexpr const char* kAutoTileHelp =
+    "auto:WxH for a seamless tile of that size (the best crop where it repeats cleanly, else one "
+    "cut along the seams of least error, as tile -o makes it)";
+
 // The search's choice and its seam error, on stderr.
 inline void print_tile_search(const btfgmm::TileSearchResult& r, double seconds) {
   fmt::print(stderr,

@@ -35,18 +35,27 @@ std::string tile_text(const py::object& tile) {
   }
 }
 
-// The data set of a BtfData or a path; with a BtfData, its tile.
+// The data set of a BtfData or a path; with a BtfData, its tile, and the seamless tile it is
+// (SeamlessTile::describe()) where it was made by cutting.
 struct DataArg {
   std::string path;
   std::optional<Tile> tile;
+  std::string made;
 };
 
 DataArg data_arg(const py::object& data, const char* what) {
   if (py::isinstance<BtfData>(data)) {
     const BtfData& d = data.cast<const BtfData&>();
-    return {d.source, d.btf->origin()};
+    return {d.source, d.btf->origin(), d.btf->made_from()};
   }
-  return {path_of(data, what), std::nullopt};
+  return {path_of(data, what), std::nullopt, ""};
+}
+
+// The data a DataArg names: the set on disk, or the seamless tile made from it again.
+BtfSource open_data(const DataArg& d) {
+  BtfSource src = BtfSource::open(d.path);
+  if (d.made.empty()) return src;
+  return seamless_tile_source(src, made_tile_again(src, d.made));
 }
 
 BtfData read_btf(const py::object& path, const py::object& tile) {
@@ -55,8 +64,24 @@ BtfData read_btf(const py::object& path, const py::object& tile) {
   const std::string text = tile_text(tile);
   py::gil_scoped_release release;
   const BtfSource src = BtfSource::open(d.source);
-  const Tile t = choose_tile(src, text, "tile").tile;
-  d.btf = std::make_shared<Btf>(src.load(t));
+  const TileChoice c = choose_tile(src, text, "tile");
+  d.btf = std::make_shared<Btf>(c.source.load(c.tile));
+  d.image_width = src.info().width;
+  d.image_height = src.info().height;
+  return d;
+}
+
+// A seamless tile made by cutting (btfgmm tile -o), as a Btf: its values the made images.
+BtfData seamless_tile(const py::object& path, const std::tuple<int, int>& size,
+                      const std::optional<std::tuple<int, int>>& overlap) {
+  BtfData d;
+  d.source = path_of(path, "seamless_tile");
+  SeamlessTileConfig c;
+  std::tie(c.width, c.height) = size;
+  if (overlap) std::tie(c.overlap_x, c.overlap_y) = *overlap;
+  py::gil_scoped_release release;
+  const BtfSource src = BtfSource::open(d.source);
+  d.btf = std::make_shared<Btf>(seamless_tile_source(src, cut_seamless_tile(src, c)).load());
   d.image_width = src.info().width;
   d.image_height = src.info().height;
   return d;
@@ -95,6 +120,7 @@ void bind_btf(py::module_& m) {
                              })
       .def_property_readonly("format", [](const BtfData& d) { return to_string(d.btf->format()); })
       .def_property_readonly("source", [](const BtfData& d) { return d.source; })
+      .def_property_readonly("made_from", [](const BtfData& d) { return d.btf->made_from(); })
       .def_property_readonly(
           "image_size",
           [](const BtfData& d) { return py::make_tuple(d.image_width, d.image_height); })
@@ -107,7 +133,16 @@ void bind_btf(py::module_& m) {
       });
   m.def("read_btf", &read_btf, py::arg("path"), py::arg("tile") = py::none(),
         "Reads a BTF (a folder or Bonn .zip, as `btfgmm info` reads it), its whole images or a "
-        "tile: None, (x, y, w, h), \"X,Y,W,H\" or \"auto:WxH\" (the most seamless tile).");
+        "tile: None, (x, y, w, h), \"X,Y,W,H\" or \"auto:WxH\" (a seamless tile: the best "
+        "crop where it repeats cleanly, else one made by cutting, as `btfgmm fit --tile auto:` "
+        "chooses; made_from names it).");
+  m.def("seamless_tile", &seamless_tile, py::arg("path"), py::arg("size"), py::kw_only(),
+        py::arg("overlap") = py::none(),
+        "Makes a seamless tile of size (w, h) from a BTF as `btfgmm tile --size WxH -o` does: "
+        "cut from a region of the tile plus an overlap (default: as many columns and rows as "
+        "the images allow, up to half the tile) along the cuts of least error, one cut for all "
+        "images. Returns it as a Btf (values: n_lights x n_views x h x w x 3); made_from names "
+        "the region and overlap, and fit() and compare() take it as it is.");
 }
 
 }  // namespace
@@ -256,9 +291,14 @@ Model fit(const py::object& data, const py::object& tile, const py::object& prog
   std::unique_ptr<Representation> r;
   try {
     py::gil_scoped_release release;
-    auto src = std::make_shared<const BtfSource>(BtfSource::open(d.path));
-    const Tile t = d.tile ? *d.tile : choose_tile(*src, text, "tile").tile;
-    r = fit_representation(o, d.path, std::move(src), t, p);
+    BtfSource opened = open_data(d);
+    Tile t = d.tile ? *d.tile : Tile{};
+    if (!d.tile) {
+      TileChoice c = choose_tile(opened, text, "tile");
+      t = c.tile;
+      opened = std::move(c.source);
+    }
+    r = fit_representation(o, d.path, std::make_shared<const BtfSource>(std::move(opened)), t, p);
   } catch (const Error&) {
     watch.raise_if_stopped(false);  // a method's fit stops by throwing
     throw;
@@ -283,7 +323,8 @@ py::object compare(const py::object& data, const Model& model, bool force) {
     check_model_frame(*model.rep, name, info, d.path);
     const ModelFrame& f = model.rep->frame();
     const Btf tile =
-        src.load({.x = f.origin.x, .y = f.origin.y, .width = f.width, .height = f.height});
+        fitted_source(src, model.rep->provenance())
+            .load({.x = f.origin.x, .y = f.origin.y, .width = f.width, .height = f.height});
     const DataCheck check =
         check_fitted_data(*model.rep, name, tile, {d.path, info.width, info.height});
     refuse_other_data(check, force, "compare");

@@ -20,6 +20,8 @@
 #include "btfgmm/measure/seamless_tile.hpp"
 #include "btfgmm/measure/tile.hpp"
 #include "btfgmm/measure/tile_option.hpp"
+#include "btfgmm/model/checkpoint.hpp"
+#include "btfgmm/model/fit.hpp"
 #include "test_util.hpp"
 
 namespace {
@@ -242,5 +244,60 @@ TEST(SeamlessTile, SizesTheImageCannotHoldNameTheLargestItCan) {
   e = test::error_of([&] { cut_seamless_tile(src, c); });
   EXPECT_NE(e.find("stopped"), std::string::npos) << e;
 }
+
+}  // namespace
+
+namespace {
+
+TEST(SeamlessTile, ACheckpointKeepsTheMadeTile) {
+  FitCheckpoint k;
+  k.input = "btf";
+  k.output = "m.btfgmm";
+  k.made_from = "seamless 20x20 tile cut from 1,2,30,30 (overlap 10x10)";
+  k.state.mixture.resize(1);
+  const fs::path path = fs::temp_directory_path() / "btfgmm_seamless_made.ckpt";
+  save_checkpoint(k, path);
+  const FitRequest r = resume_request(path);
+  fs::remove(path);
+  EXPECT_EQ(r.made_tile, k.made_from);
+}
+
+#ifdef BTFGMM_CLI_PATH
+// tile -o writes the made tile and its map, refuses to write over images, and a model of it
+// (fit --tile auto:) goes on (fit --continue) on the tile made again.
+TEST(SeamlessTileCli, TileWritesItAndAFitOfItGoesOn) {
+  Folder dir("cli");
+  write_utia(noise(30, 30, 6), dir / "btf");
+  test::CliRun r =
+      test::run_cli("tile " + (dir / "btf") + " --size 20x20 -o " + (dir / "made"), "seamless");
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_NE(r.out.find("made a seamless 20x20 tile cut from"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("wrap: its step across the wrap is"), std::string::npos) << r.out;
+  EXPECT_TRUE(fs::exists(dir / "made/seamless-tile.json"));
+  EXPECT_EQ(BtfSource::open(dir / "made").info().width, 20);
+  r = test::run_cli("tile " + (dir / "btf") + " --size 20x20 -o " + (dir / "made"), "seamless");
+  EXPECT_EQ(r.status, 1);
+  EXPECT_NE(r.err.find("--overwrite"), std::string::npos) << r.err;
+  r = test::run_cli("tile " + (dir / "btf") + " --size 29x20 -o " + (dir / "other"), "seamless");
+  EXPECT_EQ(r.status, 1);
+  EXPECT_NE(r.err.find("at most 28x28"), std::string::npos) << r.err;
+
+  r = test::run_cli(
+      "fit " + (dir / "btf") + " --tile auto:20x20 -M 4 --iterations 2 -q -o " + (dir / "a.btfgmm"),
+      "seamless");
+  ASSERT_EQ(r.status, 0) << r.err;
+  r = test::run_cli(
+      "fit --continue " + (dir / "a.btfgmm") + " --iterations 3 -q -o " + (dir / "b.btfgmm"),
+      "seamless");
+  ASSERT_EQ(r.status, 0) << r.err;
+  r = test::run_cli("info --json " + (dir / "b.btfgmm"), "seamless");
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_NE(r.out.find("seamless 20x20 tile cut from"), std::string::npos) << r.out;
+  r = test::run_cli("compare " + (dir / "btf") + " " + (dir / "b.btfgmm") + " --json -q",
+                    "seamless");
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_EQ(nlohmann::json::parse(r.out)["data_match"], "same");
+}
+#endif
 
 }  // namespace

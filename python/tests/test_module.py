@@ -255,6 +255,26 @@ def test_read_btf(work):
     assert tile.lights[0].tolist() == [0.0, 0.0] and tile.views.shape == (6, 2)
 
 
+def test_a_seamless_tile_is_the_commands_and_fits_and_compares_as_made(work, tmp_path):
+    made = btfgmm.seamless_tile(work["btf"], (5, 5))
+    assert made.values.shape == (11, 6, 5, 5, 3)
+    assert made.made_from == "seamless 5x5 tile cut from " + made.made_from.split("from ")[1]
+    out = tmp_path / "tile"
+    cli("tile", work["btf"], "--size", "5x5", "-o", out, "-q")
+    assert np.array_equal(made.values, btfgmm.read_btf(out).values)  # the command's images
+    assert json.loads((out / "seamless-tile.json").read_text())["width"] == 5
+    model = btfgmm.fit(made, components=3, iterations=2, quiet=True)
+    model.save(tmp_path / "made.btfgmm")
+    assert model.frame["width"] == 5
+    got = btfgmm.compare(made, btfgmm.load(tmp_path / "made.btfgmm"))  # the file, as stored
+    want = json.loads(cli("compare", work["btf"], tmp_path / "made.btfgmm", "--json", "-q"))
+    for d in (got, want):
+        del d["decode_seconds"]
+    assert got == want and got["data_match"] == "same"
+    with pytest.raises(btfgmm.ArgumentError, match="at most 6x6"):
+        btfgmm.seamless_tile(work["btf"], (7, 7))
+
+
 def test_errors_are_exceptions_with_the_library_messages(work, tmp_path):
     with pytest.raises(OSError) as e:
         btfgmm.load(tmp_path / "missing.btfgmm")

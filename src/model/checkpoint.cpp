@@ -19,7 +19,7 @@ namespace {
 constexpr std::uint8_t kMagic[8] = {0x89, 'B', 'T', 'F', 'C', 'K', 'P', '\n'};
 // 2: the runs so far, and each iteration's time and components alive (the model's
 // provenance); 1 had neither.
-constexpr std::uint32_t kVersion = 2;
+constexpr std::uint32_t kVersion = 3;  // 3: the made tile's description (2: none)
 constexpr const char* kWhat = "checkpoint";
 constexpr const char* kFix = "start the fit again without `resume`";
 
@@ -59,6 +59,7 @@ void save_checkpoint(const FitCheckpoint& c, const std::filesystem::path& path) 
   w.put<std::int32_t>(c.tile.y);
   w.put<std::int32_t>(c.tile.width);
   w.put<std::int32_t>(c.tile.height);
+  w.text(c.made_from);
   w.put<std::uint64_t>(c.components);
   w.put<std::uint64_t>(c.seed);
   w.put<std::int32_t>(c.max_iterations);
@@ -101,11 +102,13 @@ FitCheckpoint load_checkpoint(const std::filesystem::path& path) {
                             name, kFix));
   const std::span<const std::uint8_t> all(bytes);
   detail::ByteReader r(all.subspan(8, bytes.size() - 12), kWhat, name, kFix);
-  if (const auto v = r.get<std::uint32_t>("version"); v != kVersion)
-    throw Error(Error::Kind::kFormat,
-                fmt::format("checkpoint '{}' has version {}, written by {} btfgmm (this btfgmm "
-                            "reads version {}); resume it with that btfgmm, or {}",
-                            name, v, v < kVersion ? "an older" : "a newer", kVersion, kFix));
+  const auto version = r.get<std::uint32_t>("version");
+  if (version != kVersion && version != 2)
+    throw Error(
+        Error::Kind::kFormat,
+        fmt::format("checkpoint '{}' has version {}, written by {} btfgmm (this btfgmm "
+                    "reads versions 2 to {}); resume it with that btfgmm, or {}",
+                    name, version, version < kVersion ? "an older" : "a newer", kVersion, kFix));
   FitCheckpoint c;
   c.input = r.text("input");
   c.output = r.text("output");
@@ -113,6 +116,7 @@ FitCheckpoint load_checkpoint(const std::filesystem::path& path) {
   c.tile.y = r.get<std::int32_t>("tile y");
   c.tile.width = r.get<std::int32_t>("tile width");
   c.tile.height = r.get<std::int32_t>("tile height");
+  if (version >= 3) c.made_from = r.text("made tile");
   c.components = r.get<std::uint64_t>("components");
   c.seed = r.get<std::uint64_t>("seed");
   c.max_iterations = r.get<std::int32_t>("max iterations");

@@ -119,6 +119,7 @@ FitCheckpoint checkpoint_of(const FitRequest& r, const Tile& tile, std::uint64_t
   k.input = r.input;
   k.output = r.output;
   k.tile = tile;
+  k.made_from = r.source && r.source->pixel_map() ? r.source->pixel_map()->description : "";
   k.components = r.config.components;
   k.seed = r.config.seed;
   k.max_iterations = r.config.em.max_iterations;
@@ -373,6 +374,7 @@ FitRequest resume_request(const fs::path& path) {
   FitRequest r;
   r.input = k.input;
   r.tile = k.tile;
+  r.made_tile = k.made_from;
   r.config.components = k.components;
   r.config.seed = k.seed;
   r.config.em.max_iterations = k.max_iterations;
@@ -436,6 +438,8 @@ FitRequest continue_request(const fs::path& path, const std::string& input, int 
                             "input",
                             name));
   r.tile = m.origin;
+  for (const auto& [setting, value] : p.fit.settings)
+    if (setting == kTileSetting) r.made_tile = value;
   r.config.components = m.settings.components;
   r.config.seed = m.settings.seed;
   r.config.em.max_iterations = iterations;

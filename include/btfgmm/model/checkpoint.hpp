@@ -22,9 +22,10 @@ struct FitState {
 
 struct FitCheckpoint {
   // What was fitted, and how (the command's inputs).
-  std::string input;   // the BTF folder or zip, as given
-  std::string output;  // the model file to write
-  Tile tile;           // the tile as loaded (x, y, width, height)
+  std::string input;      // the BTF folder or zip, as given
+  std::string output;     // the model file to write
+  Tile tile;              // the tile as loaded (x, y, width, height)
+  std::string made_from;  // of a made tile (Btf::made_from): how to make it again; else empty
   std::uint64_t components = 0;
   std::uint64_t seed = 0;
   std::int32_t max_iterations = 0;

@@ -82,6 +82,10 @@ struct FitRequest {
   // `input` already opened by the caller (e.g. to search it for a seamless tile,
   // measure/tile_option.hpp); null: run_fit opens it.
   std::shared_ptr<const BtfSource> source;
+  // A resumed or continued fit of a made tile: its description (Btf::made_from), from the
+  // checkpoint or the model's provenance; the caller makes `source` the tile made again
+  // (measure/tile_option.hpp, fitted_source), as a new fit's caller does.
+  std::string made_tile;
   FitConfig config;  // components, seed; EM's iterations, epsilon, threads and stop flag
   Precision precision = Precision::kF32;  // of the parameters in the model file
   std::string output;                     // the model file, written atomically
