@@ -42,7 +42,13 @@ inline void print_tile_cut(const btfgmm::SeamlessTile& t, double seconds) {
 inline btfgmm::Tile tile_option(btfgmm::BtfSource& src, const std::string& text, bool quiet) {
   const auto t0 = Clock::now();
   btfgmm::TileChoice choice = btfgmm::choose_tile(src, text, "--tile");
-  if (choice.search && !quiet) print_tile_search(*choice.search, seconds_since(t0));
+  if (choice.search && !quiet && !choice.cut) print_tile_search(*choice.search, seconds_since(t0));
+  if (choice.search && !quiet && choice.cut)
+    fmt::print(stderr,
+               "the best {}x{} crop ({},{}) has a seam error of {:.3f} (0 = seamless, above 1 a "
+               "visible seam): a seamless tile is made instead\n",
+               choice.search->tile.width, choice.search->tile.height, choice.search->tile.x,
+               choice.search->tile.y, choice.search->seam.total);
   if (choice.cut && !quiet) print_tile_cut(*choice.cut, seconds_since(t0));
   src = std::move(choice.source);
   return choice.tile;

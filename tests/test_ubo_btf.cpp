@@ -16,6 +16,8 @@
 #include "btfgmm/io/dataset.hpp"
 #include "btfgmm/io/image.hpp"
 #include "btfgmm/io/ubo_btf.hpp"
+#include "btfgmm/measure/seamless_tile.hpp"
+#include "btfgmm/measure/tile.hpp"
 #include "test_util.hpp"
 #include "ubo_btf_writer.hpp"
 
@@ -282,6 +284,32 @@ TEST(UboBtfCli, ConvertReproducesTheImagesInfoListsTheDirectionsAndAFitRuns) {
   fs::remove_all(dir);
 }
 #endif
+
+// A .btf file's images are decoded one at a time for the seamless-tile search and the cut: the
+// made tile's pixels past the overlaps are the file's own.
+TEST(UboBtf, ASeamlessTileIsSearchedAndCutFromAFile) {
+  const UboSpec s = small_spec(true, 14, 12);
+  const fs::path p = write_file(test::write_ubo_btf_images(s, known_images(s)), "cut.btf");
+  const BtfSource src = BtfSource::open(p);
+  TileSearchConfig search;
+  search.min_width = search.max_width = 8;
+  search.min_height = search.max_height = 6;
+  const TileSearchResult crop = find_seamless_tile(src, search);
+  EXPECT_EQ(crop.tile.width, 8);
+  EXPECT_EQ(crop.images, 20u);
+  SeamlessTileConfig c;
+  c.width = 8;
+  c.height = 6;
+  const SeamlessTile t = cut_seamless_tile(src, c);
+  EXPECT_EQ(t.images, 20u);
+  const Btf made = seamless_tile_source(src, t).load();
+  const Btf whole = src.load();
+  for (std::size_t l = 0; l < 5; ++l)
+    for (int y = t.overlap_y; y < 6; ++y)
+      for (int x = t.overlap_x; x < 8; ++x)
+        EXPECT_EQ(made.at(l, 1, x, y, 0), whole.at(l, 1, t.region.x + x, t.region.y + y, 0));
+  fs::remove(p);
+}
 
 }  // namespace
 }  // namespace btfgmm

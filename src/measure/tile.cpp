@@ -298,16 +298,20 @@ TileSearchResult find_seamless_tile(const Btf& btf, const TileSearchConfig& conf
 
 TileSearchResult find_seamless_tile(const BtfSource& source, const TileSearchConfig& config) {
   const BtfInfo& info = source.info();
-  if (info.layout == Layout::kUboBtf)
-    throw Error(Error::Kind::kArgument,
-                fmt::format("{}: the seamless-tile search ({} auto:WxH) reads whole images, "
-                            "and a Bonn .btf file's are decoded per tile; give the tile as "
-                            "{} X,Y,W,H",
-                            info.path.string(), option_name("tile"), option_name("tile")));
   check_config(config, info.width, info.height);
   SeamSums sums(info.width, info.height, config);
   const std::size_t nv = info.views.size();
   const std::vector<std::size_t> pairs = sample_pairs(info.lights.size() * nv, config.images);
+  if (info.layout == Layout::kUboBtf) {  // decoded from its factors, an image at a time
+    std::vector<float> image;
+    for (std::size_t k : pairs) {
+      source.read_tiles({}, k, k + 1, [&](std::size_t, std::span<const float> rgb) {
+        image.assign(rgb.begin(), rgb.end());
+      });
+      sums.add({image.data()});
+    }
+    return sums.search();
+  }
   const std::size_t batch = std::size_t(std::max(8, 2 * omp_get_max_threads()));
   for (std::size_t b0 = 0; b0 < pairs.size(); b0 += batch) {
     const std::size_t n = std::min(batch, pairs.size() - b0);
