@@ -329,7 +329,7 @@ void register_fit_command(CLI::App& app, Commands& commands) {
   auto texts = std::make_shared<std::map<std::string, std::string>>();
   auto* f = app.add_subcommand(
       "fit", "Fit a model to a BTF tile: the Gaussian mixture (default) or another method");
-  f->add_option("input", fit->input, "A BTF folder or Bonn .zip");
+  f->add_option("input", fit->input, "A BTF folder, Bonn .zip or Bonn .btf file");
   f->add_option(
       "--tile", fit->tile,
       fmt::format("X,Y,W,H of the tile to fit, or {} (default: the whole image)", kAutoTileHelp));

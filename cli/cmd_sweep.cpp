@@ -339,7 +339,7 @@ void register_sweep_command(CLI::App& app, Commands& commands) {
       "Fit every method to a tile at each size of its ladder (compression 1:5 to 1:500), "
       "measure each model, and write a table, sweep.json and an HTML report with the "
       "rate-distortion curves and their Pareto front");
-  c->add_option("btf", opt->btf, "A BTF folder or Bonn .zip")->required();
+  c->add_option("btf", opt->btf, "A BTF folder, Bonn .zip or Bonn .btf file")->required();
   c->add_option("--tile", opt->tile, fmt::format("X,Y,W,H of the tile, or {}", kAutoTileHelp))
       ->required();
   c->add_option("-o,--output", opt->out,

@@ -86,7 +86,7 @@ void register_tile_command(CLI::App& app, Commands& commands) {
       "tile",
       "Find the tile of a BTF that repeats with the least visible seams (for fit --tile), or "
       "with -o make a seamless one and write it as a BTF");
-  t->add_option("input", to->input, "A BTF folder or Bonn .zip")->required();
+  t->add_option("input", to->input, "A BTF folder, Bonn .zip or Bonn .btf file")->required();
   t->add_option("--size", to->size,
                 "Tile size WxH; W and H may be ranges, e.g. 20-28x24. The tile chosen has the "
                 "lowest score: its seam error times its aspect ratio (longer side / shorter "
