@@ -72,10 +72,17 @@ void run_tile(const TileArguments& o) {
   fmt::print(stderr,
              "seam error {:.3f} (left-right {:.3f}, top-bottom {:.3f}; 0 = repeats as the texture "
              "continues, 1 = as different as neighbouring pixels): {}; {:.2f} levels RMS; {} "
-             "candidates on {} images in {}\nfit it with: btfgmm fit {} --tile {},{},{},{} ...\n",
+             "candidates on {} images in {}\n",
              r.seam.total, r.seam.left_right, r.seam.top_bottom, seam_verdict(r.seam.total),
-             r.seam.rms_levels, r.candidates, r.images, human_seconds(seconds_since(t0)), o.input,
-             t.x, t.y, t.width, t.height);
+             r.seam.rms_levels, r.candidates, r.images, human_seconds(seconds_since(t0)));
+  if (r.seam.total < btfgmm::kSeamlessCropError)
+    fmt::print(stderr, "fit it with: btfgmm fit {} --tile {},{},{},{} ...\n", o.input, t.x, t.y,
+               t.width, t.height);
+  else
+    fmt::print(stderr,
+               "fit a seamless tile of this size with: btfgmm fit {} --tile auto:{}x{} ... (it "
+               "makes one; the crop itself: --tile {},{},{},{})\n",
+               o.input, t.width, t.height, t.x, t.y, t.width, t.height);
 }
 
 }  // namespace

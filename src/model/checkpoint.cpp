@@ -129,7 +129,9 @@ FitCheckpoint load_checkpoint(const std::filesystem::path& path) {
   EmResult& res = c.state.result;
   res.iterations = r.get<std::int32_t>("iterations");
   res.dropped = r.get<std::uint64_t>("dropped");
-  res.converged = r.get<std::uint8_t>("converged") != 0;
+  const auto converged = r.get<std::uint8_t>("converged");
+  if (converged > 1) r.fail("the converged flag is neither 0 nor 1");
+  res.converged = converged == 1;
   const auto n = r.get<std::uint32_t>("history");
   if (std::size_t(n) * 20 > r.remaining() || int(n) != res.iterations)
     r.fail("the log-likelihood history does not match the iteration count");
