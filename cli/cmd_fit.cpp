@@ -199,7 +199,13 @@ void run_neural_resume(const FitArguments& given) {
   o.checkpoint = checkpoint;  // saved every --checkpoint-every epochs, removed at the end
   std::unique_ptr<btfgmm::Representation> r;
   try {
-    r = fit_neural_job(o, nullptr, {}, &k, checkpoint, Clock::now());
+    std::shared_ptr<const btfgmm::BtfSource> made;  // a made tile, made again
+    if (!k.made_from.empty()) {
+      const btfgmm::BtfSource src = btfgmm::BtfSource::open(k.input);
+      made = std::make_shared<const btfgmm::BtfSource>(
+          btfgmm::seamless_tile_source(src, btfgmm::made_tile_again(src, k.made_from)));
+    }
+    r = fit_neural_job(o, made, {}, &k, checkpoint, Clock::now());
   } catch (const Error& e) {
     if (e.kind() != Error::Kind::kFormat) throw;
     throw Error(e.kind(), fmt::format("checkpoint '{}': {}", o.resume, e.what()));

@@ -13,6 +13,8 @@
 #include <vector>
 
 #include "btfgmm/core/error.hpp"
+#include "btfgmm/io/dataset.hpp"
+#include "btfgmm/measure/seamless_tile.hpp"
 #include "btfgmm/methods/neural_btf_checkpoint.hpp"
 #include "btfgmm/methods/registry.hpp"
 #include "btfgmm/model/checkpoint.hpp"
@@ -264,6 +266,48 @@ TEST(NeuralResume, TheCommandStopsAndResumesToTheSameModel) {
                     "nr")
                 .err.find("--checkpoint"),
             std::string::npos);
+  fs::remove_all(dir);
+}
+
+// A checkpoint of a fit of a made seamless tile names it, and the command's resume makes the
+// tile again from the input: the model is the uninterrupted fit's of the made tile.
+TEST(NeuralResume, AMadeTileIsMadeAgainOnResume) {
+  const fs::path dir =
+      fs::temp_directory_path() / ("btfgmm_neural_made_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  const std::string btf = (dir / "btf").string(), ck = (dir / "fit.ck").string();
+  ASSERT_EQ(test::run_cli("generate --material bumps --size 12 --lights rings:0/1,30/4,60/6 "
+                          "--views rings:0/1,45/5 -q -o " +
+                              btf,
+                          "nm")
+                .status,
+            0);
+  const BtfSource src = BtfSource::open(btf);
+  SeamlessTileConfig c;
+  c.width = c.height = 8;
+  const SeamlessTile made = cut_seamless_tile(src, c);
+  const Btf tile = seamless_tile_source(src, made).load();
+  const Saved cut = fit_saving(tile, 6, 6);
+  NeuralCheckpoint k;
+  k.input = btf;
+  k.output = (dir / "resumed.btfgmm").string();
+  k.tile = {.x = 0, .y = 0, .width = 8, .height = 8};
+  k.options = options(6);
+  k.data_fingerprint = btf_fingerprint(tile);
+  k.state = cut.states.back();
+  k.made_from = made.describe();
+  save_neural_checkpoint(k, ck);
+  EXPECT_EQ(load_neural_checkpoint(ck).made_from, made.describe());
+  const test::CliRun resumed = test::run_cli("fit --resume " + ck, "nm");
+  ASSERT_EQ(resumed.status, 0) << resumed.err;
+  const auto whole = load_representation(dir / "resumed.btfgmm");
+  EXPECT_EQ(whole->payload(),
+            fit_and_record(find_method("neural"), tile, options(6), {})->payload());
+  bool named = false;
+  for (const auto& [setting, value] : whole->provenance().fit.settings)
+    named = named || (setting == "tile" && value == made.describe());
+  EXPECT_TRUE(named) << "the model's provenance names the made tile";
   fs::remove_all(dir);
 }
 #endif

@@ -24,7 +24,7 @@ namespace btfgmm {
 namespace {
 
 constexpr std::uint8_t kMagic[8] = {0x89, 'B', 'T', 'F', 'N', 'C', 'K', '\n'};
-constexpr std::uint32_t kVersion = 1;
+constexpr std::uint32_t kVersion = 2;  // 2: the made tile's description (1: none)
 constexpr const char* kWhat = "neural fit checkpoint";
 constexpr const char* kFix = "start the fit again without `resume`";
 // The precision of options that set none (the method's default file).
@@ -189,6 +189,7 @@ void save_neural_checkpoint(const NeuralCheckpoint& c, const std::filesystem::pa
   w.put<std::int32_t>(c.tile.y);
   w.put<std::int32_t>(c.tile.width);
   w.put<std::int32_t>(c.tile.height);
+  w.text(c.made_from);
   put_options(w, c.options);
   w.put<std::uint64_t>(c.data_fingerprint);
   w.put<double>(c.seconds);
@@ -210,15 +211,18 @@ NeuralCheckpoint read_neural_checkpoint(std::span<const std::uint8_t> bytes,
                 fmt::format("{} '{}' is truncated or corrupted (checksum mismatch); {}", kWhat,
                             name, kFix));
   detail::ByteReader r(bytes.subspan(8, bytes.size() - 12), kWhat, name, kFix);
-  if (const auto v = r.get<std::uint32_t>("version"); v != kVersion)
+  const auto version = r.get<std::uint32_t>("version");
+  if (version != kVersion && version != 1)
     throw Error(Error::Kind::kFormat,
                 fmt::format("{} '{}' has version {}, written by {} btfgmm (this btfgmm reads "
-                            "version {}); resume it with that btfgmm, or {}",
-                            kWhat, name, v, v < kVersion ? "an older" : "a newer", kVersion, kFix));
+                            "versions 1 to {}); resume it with that btfgmm, or {}",
+                            kWhat, name, version, version < kVersion ? "an older" : "a newer",
+                            kVersion, kFix));
   NeuralCheckpoint c;
   c.input = r.text("input");
   c.output = r.text("output");
   c.tile = get_tile(r);
+  if (version >= 2) c.made_from = r.text("made tile");
   c.options = get_options(r);
   c.data_fingerprint = r.get<std::uint64_t>("data fingerprint");
   c.seconds = r.get<double>("seconds");
@@ -264,7 +268,8 @@ std::unique_ptr<Representation> fit_neural_job(const NeuralFitJob& job,
                      .options = s,
                      .data_fingerprint = btf_fingerprint(btf),
                      .runs = job.resume ? job.resume->runs + 1 : 1,
-                     .state = {}};
+                     .state = {},
+                     .made_from = btf.made_from()};
   const double before = job.resume ? job.resume->seconds : 0.0;
   NeuralCheckpointing checkpointing{.every_epochs = job.every_epochs,
                                     .save = {},

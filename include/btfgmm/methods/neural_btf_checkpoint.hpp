@@ -62,6 +62,7 @@ struct NeuralCheckpoint {
   double seconds = 0.0;                // the fit's time so far
   std::uint32_t runs = 1;              // runs so far, the one that wrote it included
   NeuralFitState state;
+  std::string made_from;  // of a made tile (Btf::made_from): how to make it again; else empty
 };
 
 // The first bytes of a neural fit's checkpoint (another file: false).
