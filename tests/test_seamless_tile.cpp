@@ -293,6 +293,8 @@ TEST(SeamlessTileCli, TileWritesItAndAFitOfItGoesOn) {
   r = test::run_cli("info --json " + (dir / "b.btfgmm"), "seamless");
   ASSERT_EQ(r.status, 0) << r.err;
   EXPECT_NE(r.out.find("seamless 20x20 tile cut from"), std::string::npos) << r.out;
+  r = test::run_cli("info " + (dir / "b.btfgmm"), "seamless");
+  EXPECT_NE(r.out.find("(its seamless 20x20 tile cut from"), std::string::npos) << r.out;
   r = test::run_cli("compare " + (dir / "btf") + " " + (dir / "b.btfgmm") + " --json -q",
                     "seamless");
   ASSERT_EQ(r.status, 0) << r.err;

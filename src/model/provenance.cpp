@@ -108,6 +108,11 @@ std::string hash_text(std::uint64_t hash) {
 std::string describe_source(const Provenance& p, const Tile& tile) {
   if (!p.recorded) return "no provenance recorded";
   const DataSource& s = p.data.source;
+  for (const auto& [setting, value] : p.fit.settings)
+    if (setting == kTileSetting)  // a made tile: its own images, cut from the source's
+      return fmt::format("{} (its {}, content hash {})",
+                         s.name.empty() ? std::string("data not named") : "'" + s.name + "'", value,
+                         hash_text(p.data.content_hash));
   const std::string images =
       s.image_width > 0 ? fmt::format(" of {}x{} images", s.image_width, s.image_height) : "";
   return fmt::format("{} (its {}x{} tile at ({}, {}){}, content hash {})",
