@@ -200,11 +200,9 @@ void run_neural_resume(const FitArguments& given) {
   std::unique_ptr<btfgmm::Representation> r;
   try {
     std::shared_ptr<const btfgmm::BtfSource> made;  // a made tile, made again
-    if (!k.made_from.empty()) {
-      const btfgmm::BtfSource src = btfgmm::BtfSource::open(k.input);
+    if (!k.made_from.empty())
       made = std::make_shared<const btfgmm::BtfSource>(
-          btfgmm::seamless_tile_source(src, btfgmm::made_tile_again(src, k.made_from)));
-    }
+          btfgmm::made_tile_source(btfgmm::BtfSource::open(k.input), k.made_from));
     r = fit_neural_job(o, made, {}, &k, checkpoint, Clock::now());
   } catch (const Error& e) {
     if (e.kind() != Error::Kind::kFormat) throw;

@@ -89,11 +89,9 @@ btfgmm::FitRequest fit_request(const FitArguments& o) {
   r.config.em.threads = o.options.threads;
   r.config.device = btfgmm::fit_device(o.options);
   r.config.em.stop = &g_stop;
-  if (!r.made_tile.empty()) {  // resumed or continued: the made tile made again
-    const btfgmm::BtfSource src = btfgmm::BtfSource::open(r.input);
+  if (!r.made_tile.empty())  // resumed or continued: the made tile made again
     r.source = std::make_shared<const btfgmm::BtfSource>(
-        btfgmm::seamless_tile_source(src, btfgmm::made_tile_again(src, r.made_tile)));
-  }
+        btfgmm::made_tile_source(btfgmm::BtfSource::open(r.input), r.made_tile));
   return r;
 }
 

@@ -53,9 +53,7 @@ DataArg data_arg(const py::object& data, const char* what) {
 
 // The data a DataArg names: the set on disk, or the seamless tile made from it again.
 BtfSource open_data(const DataArg& d) {
-  BtfSource src = BtfSource::open(d.path);
-  if (d.made.empty()) return src;
-  return seamless_tile_source(src, made_tile_again(src, d.made));
+  return made_tile_source(BtfSource::open(d.path), d.made);
 }
 
 BtfData read_btf(const py::object& path, const py::object& tile) {

@@ -63,6 +63,20 @@ Saved fit_saving(const Btf& tile, int epochs, int stop_at) {
   return out;
 }
 
+// The checkpoint of a fit of the 8 x 8 `tile` of `input` to `output` (options(6)) as a fit
+// stopped after its 6th report leaves it.
+NeuralCheckpoint stopped_checkpoint(const std::string& input, const std::string& output,
+                                    const Btf& tile) {
+  NeuralCheckpoint k;
+  k.input = input;
+  k.output = output;
+  k.tile = {.x = 0, .y = 0, .width = 8, .height = 8};
+  k.options = options(6);
+  k.data_fingerprint = btf_fingerprint(tile);
+  k.state = fit_saving(tile, 6, 6).states.back();
+  return k;
+}
+
 // The state through a checkpoint file and back, as the command saves and reads it.
 NeuralFitState through_a_file(const NeuralFitState& state, const std::string& tag) {
   NeuralCheckpoint k;
@@ -219,14 +233,7 @@ TEST(NeuralResume, TheCommandStopsAndResumesToTheSameModel) {
             load_representation(dir / "whole.btfgmm")->payload());
   // A checkpoint through the library, as a stopped fit leaves it, resumed by the command.
   const Btf tile = small_tile();
-  const Saved cut = fit_saving(tile, 6, 6);
-  NeuralCheckpoint k;
-  k.input = btf;
-  k.output = (dir / "resumed.btfgmm").string();
-  k.tile = {.x = 0, .y = 0, .width = 8, .height = 8};
-  k.options = options(6);
-  k.data_fingerprint = btf_fingerprint(tile);
-  k.state = cut.states.back();
+  NeuralCheckpoint k = stopped_checkpoint(btf, (dir / "resumed.btfgmm").string(), tile);
   save_neural_checkpoint(k, ck);
   const std::string copy = slurp(ck);
   EXPECT_NE(run_cli("fit --resume " + ck + " -M 8", "nr").err.find("--components"),
@@ -288,14 +295,7 @@ TEST(NeuralResume, AMadeTileIsMadeAgainOnResume) {
   c.width = c.height = 8;
   const SeamlessTile made = cut_seamless_tile(src, c);
   const Btf tile = seamless_tile_source(src, made).load();
-  const Saved cut = fit_saving(tile, 6, 6);
-  NeuralCheckpoint k;
-  k.input = btf;
-  k.output = (dir / "resumed.btfgmm").string();
-  k.tile = {.x = 0, .y = 0, .width = 8, .height = 8};
-  k.options = options(6);
-  k.data_fingerprint = btf_fingerprint(tile);
-  k.state = cut.states.back();
+  NeuralCheckpoint k = stopped_checkpoint(btf, (dir / "resumed.btfgmm").string(), tile);
   k.made_from = made.describe();
   save_neural_checkpoint(k, ck);
   EXPECT_EQ(load_neural_checkpoint(ck).made_from, made.describe());

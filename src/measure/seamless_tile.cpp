@@ -366,6 +366,11 @@ BtfSource seamless_tile_source(const BtfSource& source, const SeamlessTile& tile
   return source.remapped(tile.pixel_map(tile.describe()));
 }
 
+BtfSource made_tile_source(const BtfSource& source, const std::string& description) {
+  if (description.empty()) return source;
+  return seamless_tile_source(source, made_tile_again(source, description));
+}
+
 SeamlessTile made_tile_again(const BtfSource& source, const std::string& description) {
   SeamlessTileConfig c;
   int x = 0, y = 0, rw = 0, rh = 0, ox = 0, oy = 0;

@@ -62,7 +62,7 @@ TileChoice choose_tile(const BtfSource& source, const std::string& text,
 
 BtfSource fitted_source(const BtfSource& source, const Provenance& provenance) {
   for (const auto& [name, value] : provenance.fit.settings)
-    if (name == kTileSetting) return seamless_tile_source(source, made_tile_again(source, value));
+    if (name == kTileSetting) return made_tile_source(source, value);
   return source;
 }
 

@@ -4,8 +4,6 @@
 //
 // Each input is read twice: as given (the magic, version and CRC checks), and with its CRC-32
 // made right, so that mutations reach the fields behind the checksum.
-#include <zlib.h>
-
 #include <unistd.h>
 #include <cstdint>
 #include <cstring>
@@ -18,6 +16,7 @@
 
 #include "btfgmm/core/error.hpp"
 #include "btfgmm/model/checkpoint.hpp"
+#include "checkpoint_fuzz.hpp"
 
 namespace {
 
@@ -47,22 +46,12 @@ void read_and_write_back(std::span<const std::uint8_t> bytes) {
   btfgmm::save_checkpoint(c, out);
   const std::vector<std::uint8_t> again = bytes_of(out);
   std::filesystem::remove(out);
-  std::uint32_t version = 0;
-  std::memcpy(&version, bytes.data() + 8, 4);
-  if (version == 3 &&
-      (again.size() != bytes.size() || std::memcmp(again.data(), bytes.data(), bytes.size()) != 0))
-    __builtin_trap();
+  btfgmm::fuzz::trap_unless_written_back(bytes, again, 3);
 }
 
 }  // namespace
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
-  read_and_write_back({data, size});
-  if (size >= 16) {  // the same bytes with a consistent CRC-32 (the last 4 bytes)
-    std::vector<std::uint8_t> fixed(data, data + size);
-    const auto crc = std::uint32_t(crc32(0L, fixed.data(), uInt(size - 4)));
-    std::memcpy(fixed.data() + size - 4, &crc, 4);
-    read_and_write_back(fixed);
-  }
+  btfgmm::fuzz::as_given_and_with_crc_fixed(data, size, read_and_write_back);
   return 0;
 }

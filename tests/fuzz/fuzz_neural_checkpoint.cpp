@@ -4,8 +4,6 @@
 //
 // Each input is read twice: as given (the magic, version and CRC checks), and with its CRC-32
 // made right, so that mutations reach the fields behind the checksum.
-#include <zlib.h>
-
 #include <unistd.h>
 #include <cstdint>
 #include <cstring>
@@ -18,6 +16,7 @@
 
 #include "btfgmm/core/error.hpp"
 #include "btfgmm/methods/neural_btf_checkpoint.hpp"
+#include "checkpoint_fuzz.hpp"
 
 namespace {
 
@@ -36,22 +35,12 @@ void read_and_write_back(std::span<const std::uint8_t> bytes) {
   const std::vector<std::uint8_t> again((std::istreambuf_iterator<char>(in)),
                                         std::istreambuf_iterator<char>());
   std::filesystem::remove(path);
-  std::uint32_t version = 0;  // an older version's is read, and written back as the current
-  std::memcpy(&version, bytes.data() + 8, 4);
-  if (version == 2 &&
-      (again.size() != bytes.size() || std::memcmp(again.data(), bytes.data(), bytes.size()) != 0))
-    __builtin_trap();
+  btfgmm::fuzz::trap_unless_written_back(bytes, again, 2);
 }
 
 }  // namespace
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
-  read_and_write_back({data, size});
-  if (size >= 16) {  // the same bytes with a consistent CRC-32 (the last 4 bytes)
-    std::vector<std::uint8_t> fixed(data, data + size);
-    const auto crc = std::uint32_t(crc32(0L, fixed.data(), uInt(size - 4)));
-    std::memcpy(fixed.data() + size - 4, &crc, 4);
-    read_and_write_back(fixed);
-  }
+  btfgmm::fuzz::as_given_and_with_crc_fixed(data, size, read_and_write_back);
   return 0;
 }

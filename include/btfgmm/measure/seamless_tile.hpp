@@ -89,6 +89,11 @@ BtfSource seamless_tile_source(const BtfSource& source, const SeamlessTile& tile
 // Throws Error(kArgument) for a description that names no made tile.
 SeamlessTile made_tile_again(const BtfSource& source, const std::string& description);
 
+// The data a made tile's description (Btf::made_from, a checkpoint's or a provenance's record)
+// names in `source`: that tile made again as a data set of its own, or for an empty description
+// `source` itself. Throws as made_tile_again.
+BtfSource made_tile_source(const BtfSource& source, const std::string& description);
+
 // The made tile's pixel map as a small JSON document (seamless-tile.json beside its images):
 // the source, the region, the overlaps, both cuts, their cost, and for each tile pixel (x, y),
 // row-major, the source image's pixel it was taken from.
